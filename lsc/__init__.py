@@ -1,0 +1,13 @@
+"""lsc — low-speed collinear bumper-to-bumper crash simulation.
+
+``lsc.solve(scene)`` simulates one crash; ``lsc.Scene.load`` validates a scene. See the
+documentation for the scene format, the physics and the backends.
+"""
+
+from .api import solve
+from .errors import SceneError, SimulationError
+from .result import Event, Result
+from .scene import Scene, load_scene
+
+__all__ = ["solve", "Scene", "load_scene", "Result", "Event", "SceneError", "SimulationError"]
+__version__ = "0.1.0"

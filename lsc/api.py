@@ -1,0 +1,59 @@
+"""``lsc.solve``: one scene in, one :class:`~lsc.result.Result` out."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SceneError
+from .model import HybridModel
+from .scene import Scene
+from . import solvers
+
+__all__ = ["solve"]
+
+
+def _check_option(name: str, value):
+    """Validate the numeric solver options shared by every backend."""
+    if name in ("rtol", "atol", "dt", "t_end", "first_step"):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
+                or not np.isfinite(value) or value <= 0:
+            raise SceneError(f"solver.{name}", f"{name} must be a positive finite number, "
+                             f"got {value!r}")
+    if name in ("max_events", "max_steps", "n_samples"):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise SceneError(f"solver.{name}", f"{name} must be a positive integer, got {value!r}")
+    if name == "integrator" and not isinstance(value, str):
+        raise SceneError("solver.integrator", f"integrator must be a name, got {value!r}")
+
+
+def solve(scene, method: str | None = None, **options):
+    """Simulate one crash.
+
+    Parameters
+    ----------
+    scene : dict, str, Path or Scene
+        The scene (see the scene reference); loaded and validated with :meth:`Scene.load`.
+    method : str, optional
+        ``"auto"`` (default: the cheapest exact backend), ``"closed-form"``, ``"scipy"``,
+        ``"reference"`` (the paper's fixed-step algorithm), ``"exact"``, ``"diffrax"``.
+        Overrides the scene's ``[solver] method``.
+    **options
+        Backend options, overriding the scene's ``[solver]`` table: ``rtol``, ``atol``,
+        ``integrator`` (SciPy: ``"DOP853"`` default, ``"RK45"``, ``"LSODA"``, ``"Radau"``, ...),
+        ``dt`` [s] (reference), ``t_end`` [s] (simulate until then; must not cut the crash),
+        ``max_events``, ``n_samples`` (points in the sampled series).
+
+    Returns
+    -------
+    Result
+        Series, events and metrics in the scene's unit system.
+    """
+    sc = Scene.load(scene)
+    opts = dict(sc.solver.options)
+    opts.update({k: v for k, v in options.items() if v is not None or k == "atol"})
+    for name, value in opts.items():
+        if value is not None:
+            _check_option(name, value)
+    backend = solvers.pick(sc, method or sc.solver.method)
+    model = HybridModel(sc)
+    return solvers.run(model, backend, opts)

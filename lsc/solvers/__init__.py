@@ -1,0 +1,52 @@
+"""Backends and the ``auto`` dispatch.
+
+Each backend module solves a :class:`~lsc.model.HybridModel`; :func:`solve` picks one by name.
+``auto`` takes the cheapest exact backend that applies: the closed form for two vehicles with
+linear loading and a straight unloading line, the event-driven SciPy solve otherwise.
+"""
+
+from __future__ import annotations
+
+from ..errors import SceneError
+
+__all__ = ["METHODS", "pick", "run"]
+
+#: Accepted values of ``method``.
+METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
+
+# Options each backend accepts (anything else is a SceneError, never silently ignored).
+_OPTIONS = {
+    "closed-form": {"t_end", "n_samples"},
+    "scipy": {"rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step"},
+    "reference": {"dt", "t_end", "n_samples", "max_steps"},
+}
+
+
+def pick(scene, method: str) -> str:
+    """The backend ``method`` resolves to for ``scene`` (``auto`` → cheapest exact one)."""
+    if method not in METHODS:
+        raise SceneError("solver.method", f"unknown method {method!r}; accepted: "
+                         + ", ".join(repr(m) for m in METHODS))
+    if method != "auto":
+        return method
+    from . import closed_form
+    return "closed-form" if closed_form.applies(scene) else "scipy"
+
+
+def run(model, method: str, options: dict):
+    """Solve ``model`` with backend ``method`` (already resolved) and its ``options``."""
+    if method not in _OPTIONS:
+        raise SceneError("solver.method", f"method {method!r} is not available yet; "
+                         "accepted now: " + ", ".join(repr(m) for m in ("auto", *_OPTIONS)))
+    unknown = set(options) - _OPTIONS[method]
+    if unknown:
+        name = sorted(unknown)[0]
+        raise SceneError(f"solver.{name}", f"option {name!r} does not apply to method "
+                         f"{method!r}; it accepts: {', '.join(sorted(_OPTIONS[method]))}")
+    if method == "closed-form":
+        from .closed_form import solve
+    elif method == "scipy":
+        from .scipy_ode import solve
+    else:
+        from .reference import solve
+    return solve(model, **options)

@@ -1,0 +1,130 @@
+"""The segment loop shared by the event-driven NumPy backends, and sampling into a Result.
+
+A backend supplies ``advance(t0, y0, disc, horizon)``: integrate the frozen-mode system from
+``(t0, y0)`` until the earliest armed event or ``horizon``, returning a :class:`Step`. This module
+applies the event's transition (the model's, never the backend's), checks the physics status,
+stops when no contact can close any more, and samples the piecewise solution for the result.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..result import Event, Result
+
+__all__ = ["Step", "Segment", "run_segments", "build_result"]
+
+
+@dataclass
+class Step:
+    """What one backend integration of a segment returns."""
+
+    t: float                      # end time [time]
+    y: np.ndarray                 # state at the end (2N,)
+    event: int | None             # index of the event that ended it, None at the horizon
+    dense: Callable               # dense(t_array) -> y (2N, n)
+    steps: int = 0                # accepted steps
+    nfev: int = 0                 # right-hand side evaluations
+
+
+@dataclass
+class Segment:
+    """A piece of the solution with a frozen discrete state."""
+
+    t0: float
+    t1: float
+    disc: list
+    dense: Callable
+
+
+def run_segments(model, advance, *, t_end=None, max_events=10_000):
+    """Run ``advance`` from segment to segment until the crash is over (or until ``t_end``).
+
+    Returns ``(segments, events, y_final, disc_final, totals)`` with ``totals`` the summed
+    ``steps`` and ``nfev``. Raises :class:`SimulationError` when the event limit is reached, the
+    physics cannot go on (see :data:`lsc.contact.STATUS`) or ``t_end`` comes before the crash is over.
+    """
+    y, disc = model.initial()
+    disc = model.to_python(disc)
+    model.check_status(disc, 0.0)
+    t = 0.0
+    horizon = float(t_end) if t_end is not None else 1e6 * model.time_scale() + 1.0
+    segments, events = [], []
+    totals = {"steps": 0, "nfev": 0}
+    if model.K and any(int(st["mode"]) for st in disc):
+        for k, st in enumerate(disc):
+            if int(st["mode"]):
+                events.append(Event(0.0, "contact", k))
+    while not model.is_over(y, disc):
+        if len(events) >= max_events:
+            raise SimulationError(
+                f"event limit reached ({max_events} events by t = {t:.6g} s) and the crash is not "
+                "over: raise solver.max_events, or check the scene for contacts that chatter")
+        step = advance(t, y, disc, horizon)
+        totals["steps"] += step.steps
+        totals["nfev"] += step.nfev
+        if not np.all(np.isfinite(step.y)):
+            raise SimulationError(f"the solution became non-finite near t = {step.t:.6g} s")
+        segments.append(Segment(t, step.t, disc, step.dense))
+        t, y = step.t, np.asarray(step.y, float)
+        if step.event is None:
+            if t_end is not None:
+                raise SimulationError(
+                    f"the requested end time t_end = {t_end:g} s comes before the crash is over "
+                    "(a contact is still loaded or closing): raise solver.t_end or leave it unset")
+            raise SimulationError(
+                f"no event before t = {t:.6g} s although the crash is not over: the contact "
+                "never separates (check the unloading branch)")
+        new = model.to_python(model.apply_event(step.event, t, y, disc, model.params))
+        k, _ = model.events[step.event]
+        events.append(Event(t, model.event_name(step.event, disc, new), k))
+        model.check_status(new, t)
+        disc = new
+    if t_end is not None and t_end > t:
+        step = advance(t, y, disc, float(t_end))
+        if step.event is not None:  # pragma: no cover - the crash is over, nothing can fire
+            raise SimulationError("an event fired after the crash was over")
+        segments.append(Segment(t, step.t, disc, step.dense))
+        t, y = step.t, np.asarray(step.y, float)
+    return segments, events, y, disc, totals
+
+
+def contact_records(disc) -> list[dict]:
+    """Each contact's hysteresis record from its final discrete state."""
+    return [{k: float(st[k]) for k in ("dmax", "fmax", "dperm", "ec", "er")} for st in disc]
+
+
+def build_result(model, segments, events, y_final, disc_final, *, method, tolerances, stats,
+                 n_samples=1000) -> Result:
+    """Sample every segment (both ends included) and assemble the :class:`Result`."""
+    p = model.params
+    total = max(sum(s.t1 - s.t0 for s in segments), 1e-300)
+    ts, ys, As, Ds, Fs = [], [], [], [], []
+    for s in segments:
+        n = max(2, int(round(n_samples * (s.t1 - s.t0) / total)) + 1)
+        tt = np.linspace(s.t0, s.t1, n)
+        yy = np.asarray(s.dense(tt), float).reshape(2 * model.N, n)
+        pp = dict(p, gap=p["gap"][:, None])
+        Fk = np.asarray(model.forces(yy, s.disc, pp), float).reshape(model.K, n)
+        acc = (model.net_forces(Fk) / p["m"][:, None]).T
+        F = Fk.T
+        D, _ = model.deformation(yy, pp)
+        ts.append(tt)
+        ys.append(yy.T)
+        As.append(acc)
+        Ds.append(np.asarray(D).T)
+        Fs.append(F)
+    if not segments:  # nothing happened (cannot occur for a validated scene, kept for safety)
+        ts, ys = [np.zeros(1)], [np.asarray(y_final)[None, :]]
+        As, Ds, Fs = [np.zeros((1, model.N))], [np.zeros((1, model.K))], [np.zeros((1, model.K))]
+    Y = np.concatenate(ys)
+    N = model.N
+    return Result.build(model.scene, t=np.concatenate(ts), x=Y[:, :N], v=Y[:, N:],
+                        a=np.concatenate(As), deformation=np.concatenate(Ds),
+                        force=np.concatenate(Fs), events=events,
+                        contacts=contact_records(disc_final), v_final=np.asarray(y_final)[N:],
+                        method=method, tolerances=tolerances, stats=stats)
