@@ -157,7 +157,7 @@ class HysteresisLaw:
 
     def _max_deformation(self, st: dict, D, p: dict, xp) -> dict:
         """Common velocity reached: record (D_max, F_max) and switch to the unloading branch."""
-        seg = st["seg"]
+        seg = xp.clip(st["seg"], 0, self.n_load - 1)  # (also evaluated, unused, in other modes)
         F = self.force(D, 0.0, st)
         x = D - p["ld"][seg]
         ec = p["le"][seg] + p["lf"][seg] * x + 0.5 * p["ls"][seg] * x * x

@@ -1,0 +1,46 @@
+"""Shared scene builders for the tests (plain dicts, in the scene format of DESIGN.md §4)."""
+
+import copy
+
+import pytest
+
+PAPER = {
+    "name": "paper",
+    "units": "US",
+    "g": "32.2 ft/s^2",
+    "vehicles": [
+        {"name": "bullet", "weight": 3500, "speed": 10},
+        {"name": "target", "weight": 3500, "speed": 0},
+    ],
+    "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}}],
+}
+
+
+def paper_scene(**changes):
+    """The paper's two-car scene with dotted-path changes, e.g. ``paper_scene(**{"vehicles.0.speed": 5})``."""
+    s = copy.deepcopy(PAPER)
+    for path, value in changes.items():
+        obj = s
+        keys = path.split(".")
+        for key in keys[:-1]:
+            obj = obj[int(key)] if key.isdigit() else obj[key]
+        last = keys[-1]
+        if last.isdigit():
+            obj[int(last)] = value
+        else:
+            obj[last] = value
+    return s
+
+
+def two_cars(m1, m2, v1, v2, loading, unloading, gap=0.0, units="SI"):
+    """A two-vehicle scene dict with masses (not weights)."""
+    return {
+        "units": units,
+        "vehicles": [{"mass": m1, "speed": v1}, {"mass": m2, "speed": v2}],
+        "contacts": [{"loading": loading, "unloading": unloading, "gap": gap}],
+    }
+
+
+@pytest.fixture
+def paper():
+    return copy.deepcopy(PAPER)
