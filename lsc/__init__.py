@@ -8,6 +8,7 @@ from .api import solve
 from .errors import SceneError, SimulationError
 from .result import Event, Result
 from .scene import Scene, load_scene
+from .sweep import SweepResult, sweep
 
-__all__ = ["solve", "Scene", "load_scene", "Result", "Event", "SceneError", "SimulationError"]
+__all__ = ["solve", "sweep", "SweepResult", "Scene", "load_scene", "Result", "Event", "SceneError", "SimulationError"]
 __version__ = "0.1.0"

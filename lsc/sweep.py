@@ -1,0 +1,391 @@
+"""``lsc.sweep``: one scene, many parameter values, every scalar metric as arrays.
+
+Parameters are given by dotted scene paths (``"vehicles.0.speed"``,
+``"contacts.0.unloading.restitution"``) mapped to equal-length arrays (or, with ``grid=True``, to
+axes of a grid). Every member is validated exactly as a scene would be: a member that is invalid
+or whose physics cannot be completed gets its reason in ``status`` and NaN metrics, and the other
+members are still returned.
+
+Backends: ``closed-form`` is one vectorised NumPy evaluation; ``exact`` and ``diffrax`` solve the
+whole batch at once where they provide a batch solver; every other method loops over members.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SceneError, SimulationError
+from .model import HybridModel
+from .result import METRICS
+from .scene import Restitution, Scene, UnloadingStiffness
+from . import solvers
+
+__all__ = ["sweep", "SweepResult"]
+
+
+@dataclass(eq=False)
+class SweepResult:
+    """Metrics of every member of a sweep, in the scene's unit system.
+
+    ``params``: swept path → values (n,) [scene units]. ``metrics``: name → array, (n,) per scene,
+    (n, N) per vehicle, (n, K) per contact (also reachable as attributes: ``s.delta_v``).
+    ``status``: ``"ok"`` or the member's error message. ``shape``: the grid shape (``(n,)`` for
+    a plain sweep). ``method``: the backend used. ``stats``: wall time [s], members, failures.
+    """
+
+    scene: Scene
+    params: dict
+    metrics: dict
+    status: np.ndarray
+    method: str
+    shape: tuple
+    stats: dict = field(default_factory=dict)
+
+    def __getattr__(self, name):
+        metrics = self.__dict__.get("metrics", {})
+        if name in metrics:
+            return metrics[name]
+        raise AttributeError(name)
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Boolean mask of the members that were solved."""
+        return self.status == "ok"
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Unit of every metric (pint spelling)."""
+        return {name: self.scene.unit(kind) for name, (kind, _) in METRICS.items()}
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Flat named columns (params, then metrics per vehicle/contact, then status) for CSV."""
+        cols = {}
+        for path, vals in self.params.items():
+            cols[path] = vals
+        names = [v.name for v in self.scene.vehicles]
+        for name, (kind, per) in METRICS.items():
+            arr = self.metrics[name]
+            unit = self.scene.unit(kind)
+            suffix = f" ({unit})" if unit else ""
+            if per == "vehicle":
+                for i, n in enumerate(names):
+                    cols[f"{name}[{n}]{suffix}"] = arr[:, i]
+            elif per == "contact":
+                for k in range(arr.shape[1]):
+                    cols[f"{name}[{k}]{suffix}"] = arr[:, k]
+            else:
+                cols[f"{name}{suffix}"] = arr
+        cols["status"] = self.status
+        return cols
+
+    def to_csv(self, path) -> None:
+        """Write :meth:`columns` as a CSV file with a header row."""
+        import csv
+
+        cols = self.columns()
+        keys = list(cols)
+        n = len(self.status)
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(keys)
+            for j in range(n):
+                w.writerow([cols[k][j] if k == "status" else repr(float(cols[k][j])) for k in keys])
+
+
+# --------------------------------------------------------------------------- parameters
+def _axes(scene: Scene, params: dict, grid: bool):
+    """Swept values per path as float arrays (n,) in scene units, and the sweep shape."""
+    if not isinstance(params, dict) or not params:
+        raise SceneError("params", "a sweep needs a dict of dotted scene paths to arrays of values")
+    raw = {}
+    for path, vals in params.items():
+        arr = np.asarray(vals, dtype=object if _has_text(vals) else float)
+        if arr.ndim != 1 or arr.size == 0:
+            raise SceneError(str(path), "sweep values must be a non-empty 1-D list or array")
+        raw[path] = _to_numbers(scene, path, arr)
+    if grid:
+        mesh = np.meshgrid(*raw.values(), indexing="ij")
+        shape = mesh[0].shape
+        return {p: m.reshape(-1) for p, m in zip(raw, mesh)}, shape
+    sizes = {p: a.size for p, a in raw.items()}
+    if len(set(sizes.values())) != 1:
+        raise SceneError("params", f"sweep arrays must have equal lengths (or pass grid=True), got "
+                         + ", ".join(f"{p}: {n}" for p, n in sizes.items()))
+    n = next(iter(sizes.values()))
+    return raw, (n,)
+
+
+def _has_text(vals) -> bool:
+    if isinstance(vals, np.ndarray) and vals.dtype.kind in "fiub":
+        return False
+    return any(isinstance(v, str) for v in np.asarray(vals, dtype=object).reshape(-1))
+
+
+def _to_numbers(scene: Scene, path: str, arr: np.ndarray) -> np.ndarray:
+    """Values with units (strings) converted to scene units through the loader, once per value."""
+    if arr.dtype != object:
+        return arr.astype(float)
+    out = np.empty(arr.size)
+    cache = {}
+    for j, v in enumerate(arr):
+        if not isinstance(v, str):
+            out[j] = float(v)
+            continue
+        if v not in cache:
+            probe = scene.with_values({path: v})
+            cache[v] = _read_back(probe, path)
+        out[j] = cache[v]
+    return out
+
+
+def _read_back(scene: Scene, path: str) -> float:
+    """The number a fast path sets, as the loader stored it (used for unit strings)."""
+    parts = path.replace("[", ".").replace("]", "").split(".")
+    if parts[0] == "vehicles" and len(parts) == 3:
+        veh = scene.vehicles[int(parts[1])]
+        return {"speed": veh.speed, "mass": veh.mass, "weight": veh.mass * scene.g}[parts[2]]
+    if parts[0] == "contacts" and len(parts) >= 3:
+        c = scene.contacts[int(parts[1])]
+        if parts[2] == "gap":
+            return c.gap
+        if parts[2:] == ["unloading", "restitution"]:
+            return c.law.unloading.e
+        if parts[2:] == ["unloading", "stiffness"]:
+            return c.law.unloading.stiffness
+        if parts[2:] == ["loading", "stiffness"]:
+            return c.law.loading.stiffness
+    raise SceneError(path, "values with units are accepted only for speeds, masses, weights, gaps "
+                           "and stiffnesses; give plain numbers in the scene's units")
+
+
+# Paths whose values map straight onto the model's numeric parameters (no re-loading needed).
+def _fast_setter(scene: Scene, path: str):
+    """A function ``(params_batch, values)`` that writes a swept path into the batched model
+    parameters, or ``None`` if the path needs a full re-load per member."""
+    parts = path.replace("[", ".").replace("]", "").split(".")
+    try:
+        if parts[0] == "vehicles" and len(parts) == 3:
+            i = int(parts[1])
+            if not 0 <= i < scene.n_vehicles:
+                return None
+            if parts[2] == "speed":
+                return lambda p, v: p["v0"].__setitem__((slice(None), i), v)
+            if parts[2] == "mass":
+                return lambda p, v: p["m"].__setitem__((slice(None), i), v)
+            if parts[2] == "weight":
+                return lambda p, v: p["m"].__setitem__((slice(None), i), v / scene.g)
+        if parts[0] == "contacts" and len(parts) >= 3:
+            k = int(parts[1])
+            if not 0 <= k < len(scene.contacts):
+                return None
+            law = scene.contacts[k].law
+            tail = parts[2:]
+            if tail == ["gap"]:
+                return lambda p, v: p["gap"].__setitem__((slice(None), k), v)
+            if tail == ["unloading", "restitution"] and isinstance(law.unloading, Restitution):
+                return lambda p, v: p["contacts"][k].__setitem__("e", v)
+            if tail == ["unloading", "stiffness"] and isinstance(law.unloading, UnloadingStiffness):
+                return lambda p, v: p["contacts"][k].__setitem__("su", v)
+            if tail == ["loading", "stiffness"] and law.loading.is_linear:
+                return lambda p, v: p["contacts"][k]["ls"].__setitem__((slice(None), 0), v)
+    except (ValueError, AttributeError):
+        return None
+    return None
+
+
+def _batched(params: dict, n: int) -> dict:
+    """The model's parameter pytree with a leading member axis of length ``n``."""
+    def rep(x):
+        x = np.asarray(x, float)
+        return np.repeat(x[None, ...], n, axis=0)
+    out = {k: rep(v) for k, v in params.items() if k != "contacts"}
+    out["contacts"] = [{k: rep(v) for k, v in c.items()} for c in params["contacts"]]
+    return out
+
+
+def _validate(scene: Scene, values: dict, n: int) -> np.ndarray:
+    """Status per member: ``"ok"`` or the loader's error for that member.
+
+    Numeric fields are checked against the loader's bounds by probing each path's extremes
+    (every bound the loader applies to one field is an interval); cross-field rules (closing
+    speeds, unloading stiffer than loading) are screened per member. Any member a screen flags is
+    loaded in full, so its message is exactly the loader's.
+    """
+    status = np.full(n, "ok", dtype=object)
+    suspect = np.zeros(n, bool)
+    for path, vals in values.items():
+        bad = ~np.isfinite(vals)
+        lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]))
+        suspect |= bad | (vals < lo) | (vals > hi)
+    # closing speeds (no brakes): the rear vehicle of some pair must be faster
+    speeds = np.tile(scene.speeds, (n, 1))
+    for path, vals in values.items():
+        parts = path.replace("[", ".").replace("]", "").split(".")
+        if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
+            speeds[:, int(parts[1])] = vals
+    if not any(v.brake is not None for v in scene.vehicles):
+        suspect |= ~np.any(speeds[:, :-1] - speeds[:, 1:] > 0, axis=1)
+    # unloading stiffer than a linear loading line
+    for k, c in enumerate(scene.contacts):
+        ks = values.get(f"contacts.{k}.loading.stiffness")
+        su = values.get(f"contacts.{k}.unloading.stiffness")
+        if (ks is not None or su is not None) and isinstance(c.law.unloading, UnloadingStiffness):
+            kk = ks if ks is not None else c.law.loading.end_slope
+            ss = su if su is not None else c.law.unloading.stiffness
+            suspect |= np.asarray(ss < kk)
+    cache = {}
+    for j in np.nonzero(suspect)[0]:
+        member = {p: float(v[j]) for p, v in values.items()}
+        key = tuple(member.items())
+        if key not in cache:
+            try:
+                scene.with_values(member)
+                cache[key] = "ok"
+            except SceneError as e:
+                cache[key] = f"SceneError: {e}"
+        status[j] = cache[key]
+    return status
+
+
+def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, float]:
+    """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone.
+
+    Every bound the loader puts on one numeric field is an interval, so bisection from an
+    accepted anchor (the value nearest the base scene's own) finds its ends in O(log n) loads.
+    """
+    if u.size == 0:
+        return np.inf, -np.inf
+
+    def accepted(j: int) -> bool:
+        try:
+            scene.with_values({path: float(u[j])})
+            return True
+        except SceneError:
+            return False
+
+    try:
+        anchor = int(np.argmin(np.abs(u - _read_back(scene, path))))
+    except (SceneError, AttributeError, IndexError, ValueError):
+        anchor = u.size // 2
+    if not accepted(anchor):
+        return np.inf, -np.inf  # no anchor: every member is checked in full
+    if accepted(0):
+        first = 0
+    else:
+        a, b = 0, anchor  # u[a] rejected, u[b] accepted
+        while b - a > 1:
+            mid = (a + b) // 2
+            a, b = (a, mid) if accepted(mid) else (mid, b)
+        first = b
+    if accepted(u.size - 1):
+        last = u.size - 1
+    else:
+        a, b = anchor, u.size - 1  # u[a] accepted, u[b] rejected
+        while b - a > 1:
+            mid = (a + b) // 2
+            a, b = (mid, b) if accepted(mid) else (a, mid)
+        last = a
+    return float(u[first]), float(u[last])
+
+
+def _empty_metrics(scene: Scene, n: int) -> dict:
+    N, K = scene.n_vehicles, len(scene.contacts)
+    shape = {"vehicle": (n, N), "contact": (n, K), "scene": (n,)}
+    return {name: np.full(shape[per], np.nan) for name, (_, per) in METRICS.items()}
+
+
+def _progress(total: int, progress):
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, disable=(None if progress is None else not progress),
+                unit="scene", desc="lsc sweep", leave=False)
+
+
+# --------------------------------------------------------------------------- the sweep
+def sweep(scene, params: dict, *, method: str = "auto", grid: bool = False, progress=None,
+          **options) -> SweepResult:
+    """Solve ``scene`` for every member of a parameter sweep.
+
+    Parameters
+    ----------
+    scene : dict, path or Scene
+        The base scene.
+    params : dict
+        Dotted scene path → values (numbers in the scene's units, or strings with units), all of
+        one length; with ``grid=True`` each array is an axis and the sweep covers their product.
+    method : str
+        ``"auto"`` (the cheapest exact backend for the base scene), or any ``lsc.solve`` method.
+    progress : bool or None
+        Show a progress bar (``None``: only when stderr is a terminal).
+    **options
+        Solver options as for :func:`lsc.solve` (``rtol``, ``dt``, ...).
+
+    Returns
+    -------
+    SweepResult
+    """
+    start = time.perf_counter()
+    base = Scene.load(scene)
+    values, shape = _axes(base, params, grid)
+    n = int(np.prod(shape))
+    backend = solvers.pick(base, method if method != "auto" else base.solver.method)
+    status = _validate(base, values, n)
+    metrics = _empty_metrics(base, n)
+    setters = {p: _fast_setter(base, p) for p in values}
+    fast = all(s is not None for s in setters.values())
+    opts = dict(base.solver.options)
+    opts.update(options)
+    ok = status == "ok"
+    if backend == "closed-form" and fast:
+        _closed_form_batch(base, values, setters, ok, metrics)
+    else:
+        _loop(base, values, backend, opts, status, metrics, progress)
+    wall = time.perf_counter() - start
+    return SweepResult(base, values, metrics, status, backend, tuple(shape),
+                       {"wall_time": wall, "members": n, "failed": int(np.sum(status != "ok"))})
+
+
+def _closed_form_batch(base, values, setters, ok, metrics):
+    """Every member at once through the vectorised closed form."""
+    from .solvers import closed_form
+
+    n = ok.size
+    p = _batched(HybridModel(base).params, n)
+    for path, vals in values.items():
+        setters[path](p, vals)
+    c = p["contacts"][0]
+    k = c["ls"][:, 0]
+    e = c["e"] if "e" in c else np.sqrt(k / c["su"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = closed_form.metrics(p["m"][:, 0], p["m"][:, 1], p["v0"][:, 0], p["v0"][:, 1], k, e,
+                                  p["gap"][:, 0], base.g)
+    for name in metrics:
+        arr = np.asarray(out[name], float)
+        if metrics[name].ndim == 2 and arr.ndim == 1:
+            arr = arr[:, None]
+        metrics[name][ok] = arr[ok]
+
+
+def _loop(base, values, backend, opts, status, metrics, progress):
+    """Members one by one through ``lsc.solve`` (each re-validated by the loader)."""
+    n = status.size
+    bar = _progress(n, progress)
+    try:
+        for j in range(n):
+            bar.update(1)
+            if status[j] != "ok":
+                continue
+            member = {p: float(v[j]) for p, v in values.items()}
+            try:
+                sc = base.with_values(member)
+                r = solvers.run(HybridModel(sc), backend, {"n_samples": 2, **opts})
+            except (SceneError, SimulationError) as e:
+                status[j] = f"{type(e).__name__}: {e}"
+                continue
+            for name in metrics:
+                metrics[name][j] = getattr(r, name)
+    finally:
+        bar.close()
