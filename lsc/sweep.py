@@ -102,6 +102,7 @@ def _axes(scene: Scene, params: dict, grid: bool):
         raise SceneError("params", "a sweep needs a dict of dotted scene paths to arrays of values")
     raw = {}
     for path, vals in params.items():
+        _check_path(scene, str(path))
         arr = np.asarray(vals, dtype=object if _has_text(vals) else float)
         if arr.ndim != 1 or arr.size == 0:
             raise SceneError(str(path), "sweep values must be a non-empty 1-D list or array")
@@ -116,6 +117,15 @@ def _axes(scene: Scene, params: dict, grid: bool):
                          + ", ".join(f"{p}: {n}" for p, n in sizes.items()))
     n = next(iter(sizes.values()))
     return raw, (n,)
+
+
+def _check_path(scene: Scene, path: str) -> None:
+    """Raise the loader's error if ``path`` names no field of the scene (checked on a probe)."""
+    try:
+        scene.with_values({path: 1.0})
+    except SceneError as e:
+        if "unknown key" in str(e) or "no such field" in str(e):
+            raise SceneError(path, str(e.message if hasattr(e, "message") else e)) from None
 
 
 def _has_text(vals) -> bool:
@@ -268,7 +278,7 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
 
     try:
         anchor = int(np.argmin(np.abs(u - _read_back(scene, path))))
-    except (SceneError, AttributeError, IndexError, ValueError):
+    except (SceneError, AttributeError, IndexError, ValueError, KeyError):
         anchor = u.size // 2
     if not accepted(anchor):
         return np.inf, -np.inf  # no anchor: every member is checked in full

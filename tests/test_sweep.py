@@ -1,0 +1,93 @@
+"""lsc.sweep: per-member results equal single solves; failures are reported per member."""
+
+import numpy as np
+import pytest
+
+import lsc
+from conftest import PAPER, two_cars
+
+NONLINEAR = {"table": [[0, 0], [0.02, 3000], [0.1, 25000], [0.15, 40000], [0.2, 40000],
+                       [0.25, 35000], [0.4, 120000]]}
+
+
+def _members(n, seed=1):
+    rng = np.random.default_rng(seed)
+    return {"vehicles.0.speed": rng.uniform(0.5, 30, n),
+            "contacts.0.unloading.restitution": rng.uniform(0, 1, n)}
+
+
+def test_closed_form_sweep_equals_single_solves():
+    params = _members(1000)
+    s = lsc.sweep(PAPER, params)
+    assert s.method == "closed-form" and np.all(s.ok)
+    # durations differ widely? (they do not for a linear scene: they depend on e only)
+    for j in range(0, 1000, 97):
+        r = lsc.solve(lsc.Scene.load(PAPER).with_values(
+            {p: float(v[j]) for p, v in params.items()}), method="closed-form")
+        for name in ("delta_v", "duration", "peak_force", "max_deformation", "restitution"):
+            assert np.allclose(getattr(s, name)[j], getattr(r, name), rtol=1e-12, atol=0), name
+
+
+def test_looped_sweep_equals_single_solves_with_very_different_end_times():
+    base = two_cars(1600.0, 1200.0, 6.0, 0.0, NONLINEAR, {"restitution": 0.5})
+    rng = np.random.default_rng(7)
+    n = 40
+    params = {"vehicles.0.speed": rng.uniform(0.5, 9.0, n),
+              "contacts.0.unloading.restitution": rng.uniform(0, 1, n)}
+    params["contacts.0.unloading.restitution"][:2] = [0.0, 1.0]
+    s = lsc.sweep(base, params, method="scipy", rtol=1e-11)
+    assert s.method == "scipy"
+    assert np.ptp(s.duration[s.ok]) > 0.01, "members must end at very different times"
+    for j in range(n):
+        member = lsc.Scene.load(base).with_values({p: float(v[j]) for p, v in params.items()})
+        try:
+            r = lsc.solve(member, method="scipy", rtol=1e-11)
+        except lsc.SimulationError as e:
+            assert s.status[j] == f"SimulationError: {e}"
+            continue
+        assert s.status[j] == "ok"
+        for name in ("delta_v", "duration", "peak_force", "max_deformation"):
+            assert np.allclose(getattr(s, name)[j], getattr(r, name), rtol=1e-9, atol=0), name
+
+
+def test_invalid_members_are_reported_and_the_rest_returned():
+    s = lsc.sweep(PAPER, {"contacts.0.unloading.restitution": [0.2, 1.5, -0.1, 0.8, np.nan]})
+    assert list(s.ok) == [True, False, False, True, False]
+    assert "contacts[0].unloading.restitution" in s.status[1] and "1.5" in s.status[1]
+    assert s.status[1].startswith("SceneError:")
+    assert np.isnan(s.delta_v[1]).all() and np.isfinite(s.delta_v[0]).all()
+    assert s.delta_v[3] == pytest.approx([-9.0, 9.0])
+    assert s.stats["failed"] == 3
+
+
+def test_not_closing_members_are_flagged():
+    s = lsc.sweep(PAPER, {"vehicles.0.speed": [5.0, 0.0, -2.0, 1.0]})
+    assert list(s.ok) == [True, False, False, True]
+    assert "not closing" in s.status[1]
+
+
+def test_grid_and_units():
+    g = lsc.sweep(PAPER, {"vehicles.0.speed": [5, 10, "20 km/h"],
+                          "contacts.0.loading.stiffness": [12000, 24000]}, grid=True)
+    assert g.shape == (3, 2) and g.delta_v.shape == (6, 2)
+    assert g.params["vehicles.0.speed"][4] == pytest.approx(20 / 3.6 / 0.3048)
+    mu = 3500 / 32.2 / 2
+    F = g.params["vehicles.0.speed"] * np.sqrt(g.params["contacts.0.loading.stiffness"] * mu)
+    assert g.peak_force[:, 0] == pytest.approx(F, rel=1e-12)
+
+
+def test_sweep_rejects_bad_params():
+    with pytest.raises(lsc.SceneError, match="equal lengths"):
+        lsc.sweep(PAPER, {"vehicles.0.speed": [1, 2], "vehicles.1.speed": [0, 0, 0]})
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.sweep(PAPER, {"vehicles.0.sped": [1, 2]})
+    assert e.value.path == "vehicles.0.sped"
+
+
+def test_sweep_csv(tmp_path):
+    s = lsc.sweep(PAPER, {"vehicles.0.speed": [4.0, 6.0]})
+    f = tmp_path / "s.csv"
+    s.to_csv(f)
+    text = f.read_text().splitlines()
+    assert text[0].startswith("vehicles.0.speed,delta_v[bullet] (ft/s)")
+    assert len(text) == 3 and text[1].endswith(",ok")
