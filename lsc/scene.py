@@ -1,0 +1,764 @@
+"""Scenes: the validated input of a simulation.
+
+A scene is loaded from a dict, a TOML file (path) or an existing :class:`Scene` by
+:meth:`Scene.load` (or :func:`load_scene`). Units are applied here and only here: every number
+held by a :class:`Scene` is a plain float in the scene's coherent unit system, ``"SI"`` (m, s, kg,
+N) or ``"US"`` (ft, s, slug, lbf). Results are reported in that same system.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .curves import Curve
+from .errors import SceneError
+
+__all__ = [
+    "Scene", "Vehicle", "Brake", "Contact", "Hysteresis", "Restitution", "UnloadingStiffness",
+    "UnloadingTable", "Failure", "SolverSettings", "load_scene", "UNITS", "STANDARD_G", "METHODS",
+]
+
+#: Unit of each kind of quantity in each unit system (pint spelling).
+UNITS: dict[str, dict[str, str]] = {
+    "SI": {"length": "m", "time": "s", "mass": "kg", "force": "N", "velocity": "m/s",
+           "acceleration": "m/s^2", "stiffness": "N/m", "energy": "J", "damping": "N*s/m",
+           "dimensionless": ""},
+    "US": {"length": "ft", "time": "s", "mass": "slug", "force": "lbf", "velocity": "ft/s",
+           "acceleration": "ft/s^2", "stiffness": "lbf/ft", "energy": "ft*lbf",
+           "damping": "lbf*s/ft", "dimensionless": ""},
+}
+
+#: Standard gravity in each unit system (used for weight → mass unless the scene sets ``g``).
+STANDARD_G = {"SI": 9.80665, "US": 32.174}
+
+
+@dataclass(frozen=True)
+class Brake:
+    """Coulomb tyre friction on one vehicle: kinetic ``mu`` and static ``mu_static`` (>= mu)."""
+
+    mu: float
+    mu_static: float
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """A rigid vehicle: ``mass`` [mass], initial ``speed`` [velocity], optional ``brake``."""
+
+    name: str
+    mass: float
+    speed: float
+    brake: Brake | None = None
+
+
+@dataclass(frozen=True)
+class Restitution:
+    """Straight unloading line to the permanent set that returns ``e**2`` of the absorbed energy."""
+
+    e: float
+
+
+@dataclass(frozen=True)
+class UnloadingStiffness:
+    """Straight unloading line of slope ``stiffness`` [force/length] from ``(D_max, F_max)``."""
+
+    stiffness: float
+
+
+@dataclass(frozen=True, eq=False)
+class UnloadingTable:
+    """A measured rebound curve in time order, from its start ``(d[0], f[0])`` (``f[0] > 0``) to
+    zero force (``f[-1] == 0``), deformation strictly decreasing [length, force]. It is mapped onto
+    the simulated start ``(D_max, F_max)``: deformation shifted by ``D_max - d[0]``, force scaled by
+    ``F_max / f[0]``."""
+
+    d: np.ndarray
+    f: np.ndarray
+
+
+@dataclass(frozen=True)
+class Hysteresis:
+    """The paper's IF-D contact law: a loading curve and an unloading rule."""
+
+    loading: Curve
+    unloading: Restitution | UnloadingStiffness | UnloadingTable
+    name = "hysteresis"
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Bumper failure: the contact ``force`` [force] above which a bumper is deemed to fail, and an
+    optional loading curve to follow after failure."""
+
+    force: float
+    post_failure: Curve | None = None
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The contact between vehicles ``k`` (rear) and ``k+1`` (front): its ``law``, the initial
+    ``gap`` [length] and an optional ``failure`` effect."""
+
+    law: Any
+    gap: float = 0.0
+    failure: Failure | None = None
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """The scene's ``[solver]`` table: ``method`` and its options (``rtol``, ``atol``, ``dt``, ...)."""
+
+    method: str = "auto"
+    options: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A validated scene. Build it with :meth:`Scene.load`; all values are in ``units``."""
+
+    name: str
+    units: str
+    g: float
+    vehicles: tuple[Vehicle, ...]
+    contacts: tuple[Contact, ...]
+    solver: SolverSettings = field(default_factory=SolverSettings)
+    source: dict = field(default_factory=dict)
+    base_dir: Path | None = None
+
+    @property
+    def n_vehicles(self) -> int:
+        """Number of vehicles N."""
+        return len(self.vehicles)
+
+    @property
+    def masses(self) -> np.ndarray:
+        """Vehicle masses (N,) [mass]."""
+        return np.array([v.mass for v in self.vehicles])
+
+    @property
+    def speeds(self) -> np.ndarray:
+        """Initial vehicle speeds (N,) [velocity]."""
+        return np.array([v.speed for v in self.vehicles])
+
+    def unit(self, kind: str) -> str:
+        """The unit of a kind of quantity (``"force"``, ``"velocity"``, ...) in this scene."""
+        return UNITS[self.units][kind]
+
+    @classmethod
+    def load(cls, obj, *, base_dir=None) -> "Scene":
+        """Load and validate a scene from a dict, a TOML path (str or Path) or a Scene."""
+        return _load(obj, base_dir=base_dir)
+
+    def with_values(self, values: dict[str, Any]) -> "Scene":
+        """A new scene with dotted-path fields replaced (``{"vehicles.0.speed": 5}``)."""
+        return _with_values(self, values)
+
+
+def load_scene(obj, *, base_dir=None) -> Scene:
+    """Load and validate a scene (dict, TOML path or :class:`Scene`); see :meth:`Scene.load`."""
+    return Scene.load(obj, base_dir=base_dir)
+
+
+# --------------------------------------------------------------------------- loading
+# (implementation below: _load, _with_values)
+
+import difflib as _difflib
+import math as _math
+import os as _os
+import tomllib as _tomllib
+from collections.abc import Mapping as _Mapping
+
+from .units import _type_name, to_system as _to_system, unit_factor as _unit_factor
+
+#: Solver methods accepted in ``[solver] method``.
+METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
+
+_TOP_KEYS = ("name", "units", "g", "vehicles", "contacts", "solver")
+_VEHICLE_KEYS = ("name", "weight", "mass", "speed", "brake")
+_BRAKE_KEYS = ("mu", "mu_static")
+_COLUMN_KEYS = ("deformation", "force")
+_LOADING_KINDS = ("stiffness", "table", "csv", "series")
+_LOADING_KEYS = _LOADING_KINDS + ("scale",) + _COLUMN_KEYS
+_UNLOADING_KINDS = ("restitution", "stiffness", "table")
+_UNLOADING_KEYS = _UNLOADING_KINDS + _COLUMN_KEYS
+_FAILURE_KEYS = ("force", "post_failure")
+_CONTACT_COMMON_KEYS = ("law", "gap", "failure")
+_SOLVER_KEYS = ("method", "rtol", "atol", "dt", "integrator", "t_end", "max_events")
+_MAX_DEPTH = 64
+_MISSING = object()
+
+
+class _Ctx:
+    """What every part of one load needs: the unit system, gravity and the CSV folder."""
+
+    __slots__ = ("units", "g", "base_dir")
+
+    def __init__(self, units: str, base_dir: Path):
+        self.units = units
+        self.g = STANDARD_G[units]
+        self.base_dir = base_dir
+
+
+# ----------------------------------------------------------------- small helpers
+def _p(path: str, key) -> str:
+    """Child path: ``_p("vehicles[0]", "speed") == "vehicles[0].speed"``; ints index lists."""
+    if isinstance(key, int):
+        return f"{path}[{key}]"
+    return f"{path}.{key}" if path else str(key)
+
+
+def _plain(obj, depth: int = 0):
+    """Deep copy of a scene input as plain dicts and lists (numpy arrays → lists)."""
+    if depth > _MAX_DEPTH:
+        raise SceneError("", "the scene is nested too deeply")
+    if isinstance(obj, _Mapping):
+        return {k: _plain(v, depth + 1) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v, depth + 1) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def _shown(value) -> str:
+    return f'"{value}"' if isinstance(value, str) else _type_name(value)
+
+
+def _fmt(x: float, unit: str) -> str:
+    return f"{x:g} {unit}".strip()
+
+
+def _table(value, path: str, allowed: tuple[str, ...], example: str) -> dict:
+    """Check that ``value`` is a table (dict) holding only ``allowed`` keys."""
+    if not isinstance(value, dict):
+        raise SceneError(path, f"expected a table such as {example}, got {_shown(value)}")
+    for key in value:
+        if key not in allowed:
+            if not isinstance(key, str):
+                raise SceneError(path, f"keys must be text, got {key!r}; accepted keys: {', '.join(allowed)}")
+            close = _difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+            hint = f'; did you mean "{close[0]}"?' if close else ";"
+            raise SceneError(_p(path, key), f'unknown key "{key}"{hint} accepted keys: {", ".join(allowed)}')
+    return value
+
+
+def _one_of(spec: dict, kinds: tuple[str, ...], path: str, what: str) -> str:
+    """The one key of ``kinds`` present in ``spec`` (SceneError if none or several)."""
+    given = [k for k in kinds if k in spec]
+    if len(given) == 1:
+        return given[0]
+    names = ", ".join(kinds[:-1]) + " or " + kinds[-1]
+    if not given:
+        raise SceneError(path, f"{what} needs one of {names}")
+    raise SceneError(path, f"{what} takes only one of {names}, got {' and '.join(given)}")
+
+
+def _choice(value, accepted: tuple[str, ...], path: str, what: str, aliases=None) -> str:
+    """A text value normalised (lower case, ``_``/space → ``-``) and checked against ``accepted``."""
+    if not isinstance(value, str):
+        raise SceneError(path, f"{what} must be text, one of {', '.join(accepted)}; got {_shown(value)}")
+    norm = value.strip().lower().replace("_", "-").replace(" ", "-")
+    if aliases and norm in aliases:
+        norm = aliases[norm]
+    if norm in accepted:
+        return norm
+    pool = list(accepted) + list(aliases or ())
+    close = _difflib.get_close_matches(norm, pool, n=1, cutoff=0.6)
+    hint = f'; did you mean "{close[0]}"?' if close else ";"
+    raise SceneError(path, f'unknown {what} "{value}"{hint} accepted: {", ".join(accepted)}')
+
+
+def _qty(spec: dict, key: str, kind: str, ctx: _Ctx, path: str, *, default=_MISSING,
+         minimum: float | None = None, strict: bool = True, hint: str | None = None) -> float:
+    """Read ``spec[key]`` as a ``kind`` quantity in the scene's units, with a lower bound.
+
+    ``minimum`` with ``strict`` means ``> minimum``; otherwise ``>= minimum``.
+    """
+    p = _p(path, key)
+    if key not in spec:
+        if default is _MISSING:
+            raise SceneError(p, "is required")
+        return default
+    x = _to_system(spec[key], kind, ctx.units, p, hint=hint)
+    if minimum is not None and (x <= minimum if strict else x < minimum):
+        unit = UNITS[ctx.units][kind]
+        op = ">" if strict else ">="
+        raise SceneError(p, f"must be {op} {minimum:g}, got {_fmt(x, unit)}")
+    return x
+
+
+# ----------------------------------------------------------------- tables and curves
+def _columns(spec: dict, ctx: _Ctx, path: str) -> tuple[float | None, float | None]:
+    """Column unit factors of a table / csv (``deformation = "in"``, ``force = "lbf"``)."""
+    fd = _unit_factor(spec["deformation"], "length", ctx.units, _p(path, "deformation")) \
+        if "deformation" in spec else None
+    ff = _unit_factor(spec["force"], "force", ctx.units, _p(path, "force")) if "force" in spec else None
+    return fd, ff
+
+
+def _cell(value, kind: str, factor: float | None, ctx: _Ctx, path: str) -> float:
+    t = type(value)
+    if t is float or t is int:
+        try:
+            x = float(value)
+        except OverflowError:
+            raise SceneError(path, f"{value!r} is too large") from None
+        if not _math.isfinite(x):
+            raise SceneError(path, f"{value!r} is not a finite number")
+        x *= 1.0 if factor is None else factor
+        if not _math.isfinite(x):
+            raise SceneError(path, f"{value!r} is too large")
+        return x
+    if isinstance(value, str) and factor is not None:
+        raise SceneError(path, f"give bare numbers when the column's unit is set (by the "
+                               f"\"{'deformation' if kind == 'length' else 'force'}\" key), got {_shown(value)}")
+    x = _to_system(value, kind, ctx.units, path)
+    return x * (1.0 if factor is None else factor)
+
+
+def _points(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
+    """A list of ``[deformation, force]`` pairs → an (n, 2) array in scene units."""
+    if not isinstance(value, list):
+        raise SceneError(path, f"a table is a list of [deformation, force] pairs, got {_shown(value)}")
+    fd, ff = factors
+    out = np.empty((len(value), 2))
+    for i, row in enumerate(value):
+        if not isinstance(row, list) or len(row) != 2:
+            raise SceneError(f"{path}[{i}]", f"expected a [deformation, force] pair, got {_shown(row)}")
+        out[i, 0] = _cell(row[0], "length", fd, ctx, f"{path}[{i}][0]")
+        out[i, 1] = _cell(row[1], "force", ff, ctx, f"{path}[{i}][1]")
+    return out
+
+
+def _expand(file: Path) -> Path:
+    """``~`` expanded where it can be."""
+    try:
+        return file.expanduser()
+    except RuntimeError:  # no home directory for "~user"
+        return file
+
+
+def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
+    """Two numeric columns (deformation, force) from a CSV file; a header row is skipped."""
+    if not isinstance(value, (str, _os.PathLike)) or not str(value).strip():
+        raise SceneError(path, f"expected the path of a CSV file, got {_shown(value)}")
+    file = _expand(Path(value))
+    if not file.is_absolute():
+        file = ctx.base_dir / file
+    try:
+        text = file.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise SceneError(path, f"file not found: {file}") from None
+    except UnicodeDecodeError:
+        raise SceneError(path, f"{file} is not a text (CSV) file") from None
+    except (OSError, ValueError) as e:
+        raise SceneError(path, f"cannot read {file}: {getattr(e, 'strerror', None) or e}") from None
+    rows = []
+    first = True
+    for lineno, line in enumerate(text.splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        sep = "," if "," in line else (";" if ";" in line else None)
+        cells = [c.strip().strip('"').strip("'").strip() for c in line.split(sep)]
+        while cells and not cells[-1]:
+            cells.pop()
+        nums = []
+        for c in cells:
+            try:
+                nums.append(float(c))
+            except ValueError:
+                nums.append(None)
+        if first:
+            first = False
+            if all(x is None for x in nums):
+                continue  # header row
+        if len(cells) != 2:
+            raise SceneError(path, f"{file}, line {lineno}: expected 2 columns (deformation, force), "
+                                   f"got {len(cells)}")
+        for c, x in zip(cells, nums):
+            if x is None:
+                raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a number')
+            if not _math.isfinite(x):
+                raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a finite number')
+        rows.append(nums)
+    if not rows:
+        raise SceneError(path, f"{file} has no data rows (expected two columns: deformation, force)")
+    arr = np.array(rows, dtype=float)
+    fd, ff = factors
+    if fd is not None:
+        arr[:, 0] *= fd
+    if ff is not None:
+        arr[:, 1] *= ff
+    if not np.all(np.isfinite(arr)):
+        raise SceneError(path, f"{file}: values too large after unit conversion")
+    return arr
+
+
+def _loading(spec, path: str, ctx: _Ctx) -> Curve:
+    """A loading spec (``stiffness`` | ``table`` | ``csv`` | ``series``, optional ``scale``) → Curve."""
+    spec = _table(spec, path, _LOADING_KEYS, "{ stiffness = 24000 }")
+    kind = _one_of(spec, _LOADING_KINDS, path, "a loading curve")
+    if kind not in ("table", "csv"):
+        for key in _COLUMN_KEYS:
+            if key in spec:
+                raise SceneError(_p(path, key), f"column units apply to a table or csv, not to {kind}")
+    sub = _p(path, kind)
+    try:
+        if kind == "stiffness":
+            curve = Curve.linear(_qty(spec, "stiffness", "stiffness", ctx, path, minimum=0.0))
+        elif kind == "table":
+            curve = Curve.table(_points(spec["table"], sub, _columns(spec, ctx, path), ctx))
+        elif kind == "csv":
+            curve = Curve.table(_read_csv(spec["csv"], sub, _columns(spec, ctx, path), ctx))
+        else:
+            parts = spec["series"]
+            if not isinstance(parts, list) or len(parts) != 2:
+                n = f"{len(parts)} curves" if isinstance(parts, list) else _shown(parts)
+                raise SceneError(sub, f"a series combines exactly two loading curves "
+                                      f"([{{ stiffness = ... }}, {{ table = ... }}]), got {n}")
+            a, b = (_loading(c, f"{sub}[{i}]", ctx) for i, c in enumerate(parts))
+            curve = Curve.series(a, b)
+    except SceneError:
+        raise
+    except ValueError as e:
+        raise SceneError(sub, str(e)) from None
+    if "scale" in spec:
+        factor = _qty(spec, "scale", "dimensionless", ctx, path, minimum=0.0)
+        try:
+            curve = curve.scaled(factor)
+        except ValueError as e:
+            raise SceneError(_p(path, "scale"), str(e)) from None
+    return curve
+
+
+def _unloading(spec, path: str, ctx: _Ctx, loading: Curve):
+    """An unloading spec (``restitution`` | ``stiffness`` | ``table``) → its rule."""
+    spec = _table(spec, path, _UNLOADING_KEYS, "{ restitution = 0.4 }")
+    kind = _one_of(spec, _UNLOADING_KINDS, path, "the unloading branch")
+    if kind != "table":
+        for key in _COLUMN_KEYS:
+            if key in spec:
+                raise SceneError(_p(path, key), f"column units apply to a table, not to {kind}")
+    sub = _p(path, kind)
+    if kind == "restitution":
+        e = _qty(spec, kind, "dimensionless", ctx, path)
+        if not 0.0 <= e <= 1.0:
+            raise SceneError(sub, f"must be between 0 (no rebound) and 1 (elastic), got {e:g}")
+        return Restitution(e)
+    if kind == "stiffness":
+        s = _qty(spec, kind, "stiffness", ctx, path, minimum=0.0)
+        if loading.is_linear and s < loading.stiffness:
+            unit = UNITS[ctx.units]["stiffness"]
+            raise SceneError(sub, f"{_fmt(s, unit)} is softer than the loading stiffness "
+                                  f"{_fmt(loading.stiffness, unit)}: the rebound would return more energy "
+                                  f"than the crush absorbed; use a stiffness >= {loading.stiffness:g} "
+                                  f"or give restitution")
+        return UnloadingStiffness(s)
+    pts = _points(spec["table"], sub, _columns(spec, ctx, path), ctx)
+    if pts.shape[0] < 2:
+        raise SceneError(sub, f"an unloading table needs at least two points, got {pts.shape[0]}")
+    d, f = pts[:, 0].copy(), pts[:, 1].copy()
+    if not np.all(np.diff(d) < 0):
+        i = int(np.argmax(~(np.diff(d) < 0))) + 1
+        raise SceneError(sub, f"deformation must strictly decrease along the rebound (in time order); "
+                              f"point {i} has {d[i]:g} after {d[i - 1]:g}")
+    if np.any(f < 0):
+        i = int(np.argmax(f < 0))
+        raise SceneError(sub, f"forces must be >= 0: bumpers push, never pull (point {i} has {f[i]:g})")
+    if not f[0] > 0:
+        raise SceneError(sub, "the first point is the start of the rebound and needs a force > 0")
+    if f[-1] != 0.0:
+        raise SceneError(sub, f"the last point must have force exactly 0 (separation), got {f[-1]:g}")
+    d.setflags(write=False)
+    f.setflags(write=False)
+    return UnloadingTable(d, f)
+
+
+def _hysteresis(spec: dict, path: str, ctx: _Ctx) -> Hysteresis:
+    """The IF-D law from a contact's ``loading`` and ``unloading`` keys."""
+    if "loading" not in spec:
+        raise SceneError(_p(path, "loading"), "is required (e.g. loading = { stiffness = 24000 })")
+    loading = _loading(spec["loading"], _p(path, "loading"), ctx)
+    if "unloading" not in spec:
+        raise SceneError(_p(path, "unloading"),
+                         "is required: { restitution = e } or { stiffness = ... } or { table = ... }")
+    unloading = _unloading(spec["unloading"], _p(path, "unloading"), ctx, loading)
+    return Hysteresis(loading, unloading)
+
+
+#: Contact laws this loader builds: name → (law-specific keys, builder(spec, path, ctx)).
+_CONTACT_LAWS = {"hysteresis": (("loading", "unloading"), _hysteresis)}
+_LAW_ALIASES = {"if-d": "hysteresis", "ifd": "hysteresis"}
+#: Laws of DESIGN.md section 1 that this loader does not build yet.
+_PLANNED_LAWS = ("kelvin", "hunt-crossley", "brach")
+
+
+def _law_name(value, path: str) -> str:
+    accepted = ", ".join(f'"{n}"' for n in _CONTACT_LAWS) + ' (alias "if-d")'
+    if isinstance(value, str):
+        norm = value.strip().lower().replace("_", "-").replace(" ", "-")
+        norm = _LAW_ALIASES.get(norm, norm)
+        if norm in _CONTACT_LAWS:
+            return norm
+        if norm in _PLANNED_LAWS:
+            raise SceneError(path, f'the "{value}" contact law is not supported yet; accepted: {accepted}')
+        close = _difflib.get_close_matches(norm, list(_CONTACT_LAWS) + list(_LAW_ALIASES), n=1, cutoff=0.6)
+        hint = f'; did you mean "{close[0]}"?' if close else ";"
+        raise SceneError(path, f'unknown contact law "{value}"{hint} accepted: {accepted}')
+    raise SceneError(path, f"the contact law is a name, one of {accepted}; got {_shown(value)}")
+
+
+def _contact(spec, k: int, ctx: _Ctx) -> Contact:
+    path = f"contacts[{k}]"
+    if not isinstance(spec, dict):
+        raise SceneError(path, f"expected a table such as {{ loading = {{ stiffness = 24000 }}, "
+                               f"unloading = {{ restitution = 0.4 }} }}, got {_shown(spec)}")
+    law = _law_name(spec["law"], _p(path, "law")) if "law" in spec else "hysteresis"
+    keys, build = _CONTACT_LAWS[law]
+    _table(spec, path, _CONTACT_COMMON_KEYS + keys, "")
+    model = build(spec, path, ctx)
+    gap = _qty(spec, "gap", "length", ctx, path, default=0.0, minimum=0.0, strict=False)
+    failure = None
+    if "failure" in spec:
+        fp = _p(path, "failure")
+        fspec = _table(spec["failure"], fp, _FAILURE_KEYS, '{ force = "5000 lbf" }')
+        force = _qty(fspec, "force", "force", ctx, fp, minimum=0.0)
+        post = _loading(fspec["post_failure"], _p(fp, "post_failure"), ctx) if "post_failure" in fspec else None
+        failure = Failure(force, post)
+    return Contact(model, gap, failure)
+
+
+# ----------------------------------------------------------------- vehicles, solver
+def _vehicle(spec, i: int, ctx: _Ctx) -> Vehicle:
+    path = f"vehicles[{i}]"
+    spec = _table(spec, path, _VEHICLE_KEYS, "{ weight = 3500, speed = 10 }")
+    name = spec.get("name", f"vehicle {i + 1}")
+    if not isinstance(name, str):
+        raise SceneError(_p(path, "name"), f"a name is text, got {_shown(name)}")
+    if "weight" in spec and "mass" in spec:
+        raise SceneError(path, "give either weight or mass, not both")
+    if "weight" in spec:
+        hint = f'a weight is a force: write it in "lbf" (pound-force), or give mass = "{spec["weight"]}" instead'
+        weight = _qty(spec, "weight", "force", ctx, path, minimum=0.0, hint=hint)
+        mass = weight / ctx.g
+        if not (_math.isfinite(mass) and mass > 0):
+            raise SceneError(_p(path, "weight"), f"weight / g is not a usable mass ({mass:g})")
+    elif "mass" in spec:
+        mass = _qty(spec, "mass", "mass", ctx, path, minimum=0.0)
+    else:
+        raise SceneError(path, "a vehicle needs its weight (or its mass)")
+    speed = _qty(spec, "speed", "velocity", ctx, path)
+    brake = None
+    if "brake" in spec:
+        bp = _p(path, "brake")
+        bspec = _table(spec["brake"], bp, _BRAKE_KEYS, "{ mu = 0.7, mu_static = 0.8 }")
+        mu = _qty(bspec, "mu", "dimensionless", ctx, bp, minimum=0.0)
+        mu_s = _qty(bspec, "mu_static", "dimensionless", ctx, bp, default=mu)
+        if mu_s < mu:
+            raise SceneError(_p(bp, "mu_static"), f"must be >= mu ({mu:g}), got {mu_s:g}")
+        brake = Brake(mu, mu_s)
+    return Vehicle(name, mass, speed, brake)
+
+
+def _solver(spec, ctx: _Ctx) -> SolverSettings:
+    path = "solver"
+    spec = _table(spec, path, _SOLVER_KEYS, '{ method = "auto" }')
+    method = _choice(spec.get("method", "auto"), METHODS, _p(path, "method"), "solver method",
+                     aliases={"closed": "closed-form", "closedform": "closed-form"})
+    options = {}
+    for key in ("rtol", "atol"):
+        if key in spec:
+            options[key] = _qty(spec, key, "dimensionless", ctx, path, minimum=0.0)
+    for key in ("dt", "t_end"):
+        if key in spec:
+            options[key] = _qty(spec, key, "time", ctx, path, minimum=0.0)
+    if "integrator" in spec:
+        name = spec["integrator"]
+        if not isinstance(name, str) or not name.strip():
+            raise SceneError(_p(path, "integrator"), f"an integrator is a name (e.g. \"DOP853\"), got {_shown(name)}")
+        options["integrator"] = name.strip()
+    if "max_events" in spec:
+        n = _qty(spec, "max_events", "dimensionless", ctx, path, minimum=0.0)
+        if n != int(n):
+            raise SceneError(_p(path, "max_events"), f"must be a whole number, got {n:g}")
+        options["max_events"] = int(n)
+    return SolverSettings(method, options)
+
+
+# ----------------------------------------------------------------- the scene
+def _units_name(value) -> str:
+    if isinstance(value, str):
+        up = value.strip().upper()
+        if up in UNITS:
+            return up
+    close = _difflib.get_close_matches(value.strip().upper(), list(UNITS), n=1, cutoff=0.5) \
+        if isinstance(value, str) else []
+    hint = f'; did you mean "{close[0]}"?' if close else ";"
+    raise SceneError("units", f"unknown unit system {_shown(value)}{hint} accepted: "
+                              f'"SI" (m, s, kg, N) or "US" (ft, s, slug, lbf)')
+
+
+def _check_closing(vehicles: tuple[Vehicle, ...], ctx: _Ctx) -> None:
+    """Without brakes, speeds never change before a contact closes: some pair must close."""
+    if any(v.brake is not None for v in vehicles):
+        return
+    if any(a.speed - b.speed > 0 for a, b in zip(vehicles, vehicles[1:])):
+        return
+    unit = UNITS[ctx.units]["velocity"]
+    if len(vehicles) == 2:
+        a, b = vehicles
+        raise SceneError(
+            "vehicles[0].speed",
+            f"the vehicles are not closing and never will: vehicle 1 ({a.name}, {_fmt(a.speed, unit)}) is "
+            f"the rear one and must be faster than vehicle 2 ({b.name}, {_fmt(b.speed, unit)}); "
+            "vehicles are listed rear to front")
+    raise SceneError(
+        "vehicles[0].speed",
+        "the vehicles are not closing and never will: no vehicle is faster than the one in front of it "
+        f"(speeds {', '.join(_fmt(v.speed, unit) for v in vehicles)}); vehicles are listed rear to front")
+
+
+def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
+    """Validate a plain scene dict and build the Scene."""
+    _table(src, "", _TOP_KEYS, '{ units = "US", vehicles = [...], contacts = [...] }')
+    name = src.get("name", default_name)
+    if not isinstance(name, str):
+        raise SceneError("name", f"a name is text, got {_shown(name)}")
+    ctx = _Ctx(_units_name(src.get("units", "SI")), base_dir)
+    if "g" in src:
+        ctx.g = _qty(src, "g", "acceleration", ctx, "", minimum=0.0)
+    vs = src.get("vehicles", _MISSING)
+    if vs is _MISSING:
+        raise SceneError("vehicles", "is required: a list of at least two vehicles, rear to front")
+    if not isinstance(vs, list) or len(vs) < 2:
+        got = f"{len(vs)}" if isinstance(vs, list) else _shown(vs)
+        raise SceneError("vehicles", f"a scene needs a list of at least two vehicles (rear to front), got {got}")
+    vehicles = tuple(_vehicle(v, i, ctx) for i, v in enumerate(vs))
+    cs = src.get("contacts", _MISSING)
+    need = len(vehicles) - 1
+    if cs is _MISSING:
+        raise SceneError("contacts", f"is required: {need} contact{'s' if need > 1 else ''} "
+                                     f"(contacts[k] joins vehicles[k] and vehicles[k+1])")
+    if not isinstance(cs, list) or len(cs) != need:
+        got = f"{len(cs)}" if isinstance(cs, list) else _shown(cs)
+        raise SceneError("contacts", f"{len(vehicles)} vehicles need {need} contact{'s' if need > 1 else ''} "
+                                     f"(contacts[k] joins vehicles[k] and vehicles[k+1]), got {got}")
+    contacts = tuple(_contact(c, k, ctx) for k, c in enumerate(cs))
+    solver = _solver(src["solver"], ctx) if "solver" in src else SolverSettings()
+    _check_closing(vehicles, ctx)
+    return Scene(name, ctx.units, ctx.g, vehicles, contacts, solver, source, base_dir)
+
+
+def _load(obj, *, base_dir=None) -> Scene:
+    """Load and validate a scene from a dict, a TOML path or a Scene (see :meth:`Scene.load`).
+
+    Relative CSV paths are resolved against ``base_dir``: by default the TOML file's folder, or
+    the current directory for a dict.
+    """
+    if isinstance(obj, Scene):
+        return obj
+    if isinstance(obj, (str, _os.PathLike)):
+        file = _expand(Path(obj))
+        try:
+            text = file.read_text(encoding="utf-8-sig")
+        except FileNotFoundError:
+            extra = " (a string is read as a file path; parse TOML text with tomllib and pass the dict)" \
+                if isinstance(obj, str) and ("\n" in obj or "=" in obj) else ""
+            raise SceneError("", f"scene file not found: {file}{extra}") from None
+        except (OSError, ValueError) as e:
+            raise SceneError("", f"cannot read scene file {file}: {getattr(e, 'strerror', None) or e}") from None
+        try:
+            src = _tomllib.loads(text)
+        except _tomllib.TOMLDecodeError as e:
+            raise SceneError("", f"{file} is not valid TOML: {e}") from None
+        bd = Path(base_dir) if base_dir is not None else file.parent
+        return _build(src, bd.absolute(), file.stem, src)
+    if isinstance(obj, _Mapping):
+        src = _plain(obj)
+        bd = Path(base_dir) if base_dir is not None else Path.cwd()
+        return _build(src, bd.absolute(), "scene", src)
+    raise SceneError("", f"a scene is a dict, a TOML file path or an lsc.Scene, got {type(obj).__name__}")
+
+
+# Sub-tables with_values may create when a path goes through one that is absent.
+_CREATABLE = {"brake", "failure", "solver", "post_failure", "loading", "unloading"}
+
+
+def _split_key(key) -> list[str]:
+    if not isinstance(key, str) or not key.strip():
+        raise SceneError(str(key), 'a value path is text such as "vehicles.0.speed"')
+    return key.strip().replace("[", ".").replace("]", "").split(".")
+
+
+def _alternatives(parts: list[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The exclusive keys of the table at ``parts[:-1]``, and keys that only go with some of them."""
+    parent = parts[-2] if len(parts) >= 2 else ""
+    if len(parts) == 3 and parts[0] == "vehicles":
+        return ("weight", "mass"), ()
+    if parent == "unloading":
+        return _UNLOADING_KINDS, _COLUMN_KEYS
+    if parent in ("loading", "post_failure") or (len(parts) >= 3 and parts[-3] == "series"):
+        return _LOADING_KINDS, _COLUMN_KEYS
+    return (), ()
+
+
+def _set(root: dict, key: str, value) -> None:
+    parts = _split_key(key)
+    node = root
+    for i, part in enumerate(parts):
+        last = i == len(parts) - 1
+        where = ".".join(parts[:i]) or "the scene"
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise SceneError(key, f"no such field: {where} is a list of {len(node)}, "
+                                      f"index it with 0..{len(node) - 1}, got \"{part}\"")
+            if last:
+                node[int(part)] = value
+            else:
+                node = node[int(part)]
+        elif isinstance(node, dict):
+            if not part:
+                raise SceneError(key, "empty name in the value path")
+            if last:
+                group, columns = _alternatives(parts)
+                if part in group:
+                    for other in group:
+                        if other != part:
+                            node.pop(other, None)
+                    if part not in ("table", "csv"):
+                        for other in columns:
+                            node.pop(other, None)
+                node[part] = value
+            elif part in node:
+                node = node[part]
+            elif part in _CREATABLE:
+                node = node.setdefault(part, {})
+            else:
+                raise SceneError(key, f'no such field: {where} has no "{part}"')
+        else:
+            raise SceneError(key, f"no such field: {where} is a value, not a table or a list")
+
+
+def _with_values(scene: Scene, values) -> Scene:
+    """A copy of ``scene`` with fields at dotted paths replaced, re-validated.
+
+    ``values`` maps paths (``"vehicles.0.speed"``, ``"contacts.0.unloading.restitution"``; integers
+    index lists; ``"vehicles[0].speed"`` works too) to numbers (scene units) or unit strings.
+    Setting one of a set of exclusive keys (``mass`` for ``weight``, ``stiffness`` for
+    ``restitution``) removes the others. Relative CSV paths keep the scene's ``base_dir``.
+    """
+    if not isinstance(values, _Mapping):
+        raise SceneError("", f"values must be a dict of dotted paths to values, got {type(values).__name__}")
+    if not scene.source:
+        raise SceneError("", "with_values needs a scene made by Scene.load (this one has no source)")
+    src = _plain(scene.source)
+    for key, value in values.items():
+        _set(src, key, _plain(value))
+    base = scene.base_dir if scene.base_dir is not None else Path.cwd()
+    return _build(src, Path(base), scene.name, src)

@@ -1,0 +1,238 @@
+"""The units boundary: quantities given with units → plain floats in a scene's unit system.
+
+Scenes give quantities as bare numbers (already in the scene's system, see
+:data:`lsc.scene.UNITS`) or as strings with units (``"10 ft/s"``, ``"16 km/h"``, ``"3500 lbf"``,
+``"24000 lbf/ft"``, ``"1.2 in"``). Only this module talks to pint; its registry is created on first
+use (creating it takes a fraction of a second) and conversion factors are cached per unit string,
+so converting ``"12 ft/s"`` after ``"10 ft/s"`` costs a regex match and a multiplication.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import re
+from typing import Any
+
+from .errors import SceneError
+
+__all__ = ["to_system", "unit_factor", "registry", "KIND_EXAMPLES"]
+
+_REGISTRY = None
+
+#: Examples shown in error messages for each kind of quantity.
+KIND_EXAMPLES: dict[str, tuple[str, ...]] = {
+    "length": ("1.2 in", "30 mm"),
+    "time": ("0.2 s", "5 ms"),
+    "mass": ("108.7 slug", "1600 kg"),
+    "force": ("3500 lbf", "15 kN"),
+    "velocity": ("10 ft/s", "16 km/h"),
+    "acceleration": ("32.2 ft/s^2", "9.81 m/s^2"),
+    "stiffness": ("24000 lbf/ft", "350 kN/m"),
+    "energy": ("500 ft*lbf", "700 J"),
+    "damping": ("300 lbf*s/ft", "4 kN*s/m"),
+    "dimensionless": ("0.4",),
+}
+
+# A leading number (what float() reads), then the unit expression.
+_NUMBER = re.compile(
+    r"\s*([+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf(?:inity)?))\s*(.*?)\s*$",
+    re.IGNORECASE)
+
+# unit string → (dimensionality as a sorted tuple, pint Unit); filled on first use of each string
+_UNIT_CACHE: dict[str, tuple[tuple, Any]] = {}
+# (unit string, target unit string) → multiplicative factor
+_FACTOR_CACHE: dict[tuple[str, str], float] = {}
+# kind → dimensionality (sorted tuple)
+_KIND_DIMS: dict[str, tuple] = {}
+
+
+def registry():
+    """The module's :class:`pint.UnitRegistry`, created on first call."""
+    global _REGISTRY
+    if _REGISTRY is None:
+        import pint
+
+        _REGISTRY = pint.UnitRegistry()
+    return _REGISTRY
+
+
+def _target(kind: str, system: str) -> str:
+    from .scene import UNITS
+
+    return UNITS[system][kind]
+
+
+def _unit(unit: str) -> tuple[tuple, Any]:
+    """Dimensionality and pint unit of a unit expression (cached); raises on a bad expression."""
+    hit = _UNIT_CACHE.get(unit)
+    if hit is None:
+        u = registry().parse_units(unit)
+        dim = tuple(sorted(dict(u.dimensionality).items()))
+        hit = (dim, u)
+        if len(_UNIT_CACHE) < 10_000:
+            _UNIT_CACHE[unit] = hit
+    return hit
+
+
+_POWER = re.compile(r"(\^|\*\*)\s*([^\s*/^]*)")
+_EXPONENT = re.compile(r"[+-]?\d{1,2}(\.\d{1,3})?")
+_NEXT_POWER = re.compile(r"\s*(\^|\*\*)")
+
+
+def _safe(unit: str) -> bool:
+    """Reject unit expressions that pint would spend unbounded time on (``"ft^(9^9^9)"``):
+    short, no parentheses, each exponent a small literal, no chained powers."""
+    if len(unit) > 60 or "(" in unit or ")" in unit:
+        return False
+    for m in _POWER.finditer(unit):
+        if not _EXPONENT.fullmatch(m.group(2)) or _NEXT_POWER.match(unit, m.end()):
+            return False
+    return True
+
+
+def _kind_dim(kind: str) -> tuple:
+    dim = _KIND_DIMS.get(kind)
+    if dim is None:
+        dim = _unit(_target(kind, "SI"))[0]
+        _KIND_DIMS[kind] = dim
+    return dim
+
+
+def _describe(dim: tuple) -> str:
+    """'a force', 'a length', ... or 'has dimension ...' for a dimensionality."""
+    for kind in KIND_EXAMPLES:
+        if _kind_dim(kind) == dim:
+            return "a plain number" if kind == "dimensionless" else _a(kind)
+    text = " * ".join(f"{k}^{v}" if v != 1 else k for k, v in dim)
+    return f"of dimension {text}"
+
+
+def _a(kind: str) -> str:
+    return f"an {kind}" if kind[0] in "aeiou" else f"a {kind}"
+
+
+def _expected(kind: str, system: str) -> str:
+    ex = ", ".join(f'"{e}"' for e in KIND_EXAMPLES[kind])
+    if kind == "dimensionless":
+        return f"expected a plain number (e.g. {ex})"
+    return f"expected {_a(kind)} (e.g. {ex} or a bare number in {_target(kind, system)})"
+
+
+def _factor(unit: str, kind: str, system: str, shown: str, path: str, hint: str | None) -> float:
+    """Factor from ``unit`` to the ``kind``'s unit in ``system`` (cached); SceneError if wrong."""
+    target = _target(kind, system)
+    key = (unit, target)
+    f = _FACTOR_CACHE.get(key)
+    if f is not None:
+        return f
+    try:
+        if not _safe(unit):
+            raise ValueError(unit)
+        dim, u = _unit(unit)
+    except Exception:  # pint raises many kinds of errors on malformed expressions
+        raise SceneError(path, f'could not read "{shown}" as a quantity: unknown or unsupported unit "{unit}"; '
+                               f'{_expected(kind, system)}') from None
+    if dim != _kind_dim(kind):
+        msg = f'"{shown}" is {_describe(dim)}, {_expected(kind, system)}'
+        if hint and dim == _kind_dim("mass") and kind == "force":
+            msg += f"; {hint}"
+        elif kind == "force" and dim == _kind_dim("mass"):
+            msg += '; "lb" is a pound of mass, a pound of force is "lbf"'
+        raise SceneError(path, msg)
+    try:
+        q = registry().Quantity(1.0, u).to(target)
+        f = float(q.magnitude)
+    except Exception:  # offset units and the like
+        raise SceneError(path, f'cannot convert "{shown}" to {target or "a plain number"}') from None
+    if not (math.isfinite(f) and f > 0):
+        raise SceneError(path, f'cannot convert "{shown}" to {target or "a plain number"}')
+    if len(_FACTOR_CACHE) < 10_000:
+        _FACTOR_CACHE[key] = f
+    return f
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and type(value).__name__ != "bool_"
+
+
+def _check_finite(x: float, value, path: str) -> float:
+    if not math.isfinite(x):
+        if isinstance(value, str):
+            raise SceneError(path, f'"{value}" is too large')
+        raise SceneError(path, f"{value!r} is not a finite number")
+    return x
+
+
+def to_system(value, kind: str, system: str, path: str, *, hint: str | None = None) -> float:
+    """Convert a scene quantity to a float in ``system`` (``"SI"`` or ``"US"``).
+
+    ``value`` is a bare number (taken to be in the system's unit of ``kind`` already), a string
+    ``"<number> <unit>"`` (``"10 ft/s"``; ``"10"`` alone is a bare number) or a pint quantity.
+    ``kind`` is a key of :data:`lsc.scene.UNITS` (``"velocity"``, ``"force"``, ...).
+    Raises :class:`SceneError` at ``path`` for booleans, non-numbers, NaN/inf, unknown units and
+    quantities of the wrong dimension (``hint`` is added when a mass is given for a force).
+    """
+    if _is_number(value):
+        try:
+            x = float(value)
+        except (OverflowError, ValueError):
+            raise SceneError(path, f"{value!r} is too large") from None
+        if not math.isfinite(x):
+            raise SceneError(path, f"{value!r} is not a finite number")
+        return x
+    if isinstance(value, str):
+        m = _NUMBER.fullmatch(value)
+        if m is None:
+            raise SceneError(path, f'could not read "{value}" as a quantity (a number, then a unit); '
+                                   f'{_expected(kind, system)}')
+        x = float(m.group(1))
+        unit = m.group(2)
+        if not math.isfinite(x):
+            raise SceneError(path, f'"{value}" is not a finite number')
+        if unit:
+            if unit[0] == "*":  # "10 * ft/s"
+                unit = unit[1:].strip()
+            x = x * _factor(unit, kind, system, value.strip(), path, hint)
+        return _check_finite(x, value, path)
+    if hasattr(value, "magnitude") and hasattr(value, "units"):  # a pint Quantity
+        try:
+            mag = float(value.magnitude)
+            unit = str(value.units)
+        except Exception:
+            raise SceneError(path, f"cannot read {value!r} as a number") from None
+        if not math.isfinite(mag):
+            raise SceneError(path, f"{value!r} is not a finite number")
+        value = f"{value}"
+        unit = "" if unit == "dimensionless" else unit
+        x = mag * _factor(unit, kind, system, f"{mag:g} {unit}".strip(), path, hint)
+        return _check_finite(x, value, path)
+    raise SceneError(path, f"{_type_name(value)} is not a quantity; {_expected(kind, system)}")
+
+
+def unit_factor(unit, kind: str, system: str, path: str) -> float:
+    """Factor that converts numbers given in ``unit`` (e.g. ``"in"``) to ``kind`` in ``system``.
+
+    Used for the column units of tables (``deformation = "in"``, ``force = "lbf"``).
+    """
+    if not isinstance(unit, str) or not unit.strip():
+        raise SceneError(path, f"a column unit is a unit name such as "
+                               f'"{KIND_EXAMPLES[kind][0].split(" ", 1)[-1]}", got {_type_name(unit)}')
+    unit = unit.strip()
+    if re.match(r"[+-]?[\d.]", unit):  # "1e-3 m" style: a scaled unit
+        return to_system(unit, kind, system, path)
+    return to_system("1 " + unit, kind, system, path)
+
+
+def _type_name(value) -> str:
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if value is None:
+        return "nothing (None)"
+    if isinstance(value, str):
+        return f'the text "{value}"'
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, (list, tuple)):
+        return "a list"
+    return f"{type(value).__name__} {value!r}"
