@@ -1,0 +1,207 @@
+"""The ``lsc`` command line.
+
+    lsc run [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--out DIR]
+            [--no-plots]
+    lsc scenes
+
+``SCENE`` is a TOML file or the name of a packaged scene (``lsc scenes`` lists them); without it
+``lsc run`` runs the packaged default. Exit status: 0 done, 1 the physics could not be completed
+(:class:`lsc.SimulationError`) or the output could not be written, 2 bad input
+(:class:`lsc.SceneError` or bad arguments), with one line on stderr.
+
+Each subcommand is a pair of small functions, ``_add_<name>(subparsers)`` that declares it and
+``_cmd_<name>(args)`` that runs it and returns the exit status; add new ones to ``COMMANDS``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import SceneError, SimulationError
+
+__all__ = ["main", "resolve_scene", "write_outputs"]
+
+DEFAULT_SCENE = "default"
+DEFAULT_OUT = "lsc-out"
+
+
+# --------------------------------------------------------------------------- shared helpers
+def resolve_scene(text: str | None):
+    """The :class:`lsc.Scene` named on the command line: a TOML path, or a packaged scene name
+    (``None`` → the packaged default). A name with a folder separator or a ``.toml`` suffix is
+    always a path. Raises :class:`lsc.SceneError`."""
+    from . import data
+    from .scene import Scene
+    if text is None:
+        return data.load(DEFAULT_SCENE)
+    looks_like_path = any(c in text for c in "/\\") or text.lower().endswith(".toml")
+    if not looks_like_path and text in data.names():
+        return data.load(text)
+    if looks_like_path or Path(text).expanduser().exists():
+        return Scene.load(Path(text).expanduser())  # the loader says what is wrong with it
+    data.path(text)  # raises: neither a file nor a packaged scene (with a did-you-mean)
+    raise AssertionError("unreachable")
+
+
+def _finite(obj):
+    """JSON-ready: numpy scalars to Python, non-finite floats to ``None`` (strict JSON)."""
+    if isinstance(obj, dict):
+        return {str(k): _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _finite(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def write_series_csv(result, file) -> None:
+    """``result.series_columns()`` as CSV: one header row (names with units), shortest
+    round-trip decimal for every value."""
+    cols = result.series_columns()
+    data = np.column_stack([np.asarray(c, float) for c in cols.values()])
+    with open(file, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols.keys())
+        w.writerows([repr(float(x)) for x in row] for row in data)
+
+
+def write_outputs(result, out_dir, plots: bool = True, extra: dict | None = None) -> list[Path]:
+    """Write ``series.csv``, ``summary.json`` (``result.to_dict()`` plus ``extra``) and, with
+    ``plots``, the three PNG figures into ``out_dir``; returns the paths written."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_series_csv(result, out / "series.csv")
+    summary = {**result.to_dict(), **(extra or {})}
+    with open(out / "summary.json", "w", encoding="utf-8") as fh:
+        json.dump(_finite(summary), fh, indent=2, allow_nan=False, ensure_ascii=False)
+        fh.write("\n")
+    written = [out / "series.csv", out / "summary.json"]
+    if plots:
+        from .plots import save_all
+        written += save_all(result, out)
+    return written
+
+
+def _solver_options(args) -> dict:
+    """The solver options given on the command line (absent ones are left to the scene)."""
+    names = ("rtol", "atol", "dt", "integrator")
+    return {n: getattr(args, n) for n in names if getattr(args, n, None) is not None}
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return x
+
+
+# --------------------------------------------------------------------------- lsc run
+def _add_run(sub) -> None:
+    from .scene import METHODS
+    p = sub.add_parser("run", help="simulate one scene: summary, CSV, JSON and plots",
+                       description="Simulate one crash. Prints the summary table and writes "
+                       "series.csv, summary.json, acceleration.png, velocity.png and ifd.png.")
+    p.add_argument("scene", nargs="?", metavar="SCENE",
+                   help="a scene TOML file or a packaged scene name (default: the packaged "
+                        "'default', the paper's parametric study 1 with e = 0.4)")
+    p.add_argument("--method", choices=METHODS, help="backend (overrides the scene's [solver])")
+    p.add_argument("--rtol", type=_positive_float, help="relative tolerance (scipy, diffrax)")
+    p.add_argument("--atol", type=_positive_float, help="absolute tolerance (scipy, diffrax)")
+    p.add_argument("--dt", type=_positive_float, help="time step [s] (reference)")
+    p.add_argument("--integrator", help="integrator (scipy: DOP853, RK45, LSODA, Radau, ...)")
+    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                   help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figures")
+    p.set_defaults(func=_cmd_run)
+
+
+def _cmd_run(args) -> int:
+    from .api import solve
+    scene = resolve_scene(args.scene)
+    result = solve(scene, method=args.method, **_solver_options(args))
+    print(result.summary())
+    try:
+        written = write_outputs(result, args.out, plots=not args.no_plots, extra={
+            "input": args.scene or DEFAULT_SCENE, "lsc_version": __version__})
+    except OSError as e:
+        _error(f"cannot write to {args.out}: {e.strerror or e}")
+        return 1
+    print(f"\nwritten to {args.out}/: " + ", ".join(p.name for p in written))
+    return 0
+
+
+# --------------------------------------------------------------------------- lsc scenes
+def _add_scenes(sub) -> None:
+    p = sub.add_parser("scenes", help="list the packaged scenes",
+                       description="List the packaged scenes (usable as `lsc run NAME`).")
+    p.set_defaults(func=_cmd_scenes)
+
+
+def _cmd_scenes(args) -> int:
+    import tomllib
+    from . import data
+    names = data.names()
+    w = max(len(n) for n in names)
+    for n in names:
+        with open(data.path(n), "rb") as fh:
+            title = tomllib.load(fh).get("name", "")
+        print(f"{n:<{w}}  {title}")
+    return 0
+
+
+# --------------------------------------------------------------------------- the parser
+#: The subcommands, in the order ``lsc --help`` lists them (sweep, bound, mc: to come).
+COMMANDS = [_add_run, _add_scenes]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``lsc`` argument parser with every subcommand of ``COMMANDS``."""
+    ap = argparse.ArgumentParser(
+        prog="lsc", description="Low-speed collinear bumper-to-bumper crash simulation.")
+    ap.add_argument("--version", action="version", version=f"lsc {__version__}")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for add in COMMANDS:
+        add(sub)
+    return ap
+
+
+def _error(message: str) -> None:
+    print(f"lsc: error: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def main(argv=None) -> int:
+    """Run ``lsc`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit status."""
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:  # --help, --version, usage errors (argparse printed them)
+        return e.code if isinstance(e.code, int) else 2
+    try:
+        return args.func(args)
+    except SceneError as e:
+        _error(f"{e.path}: {e.message}" if e.path else e.message)
+        return 2
+    except SimulationError as e:
+        _error(e)
+        return 1
+    except KeyboardInterrupt:
+        _error("interrupted")
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""``lsc.plots``: each figure has the scene's units on its axes, the vehicles in its legend,
+the events marked, and draws the result's own numbers."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import lsc
+from lsc import data
+
+mpl = pytest.importorskip("matplotlib")
+mpl.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from lsc import plots  # noqa: E402
+
+SI_CHAIN = {
+    "name": "three-car chain",
+    "units": "SI",
+    "vehicles": [{"name": "A", "mass": 1500, "speed": "16 km/h"},
+                 {"name": "B", "mass": 1200, "speed": 0},
+                 {"name": "C", "mass": 1400, "speed": 0}],
+    "contacts": [
+        {"loading": {"table": [[0, 0], [0.02, 5000], [0.08, 60000], [0.3, 120000]]},
+         "unloading": {"restitution": 0.3}},
+        {"loading": {"stiffness": 400000}, "unloading": {"restitution": 0.5}, "gap": 0.05},
+    ],
+}
+
+
+@pytest.fixture(autouse=True)
+def _close():
+    yield
+    plt.close("all")
+
+
+@pytest.fixture(scope="module")
+def us():
+    return lsc.solve(data.load("default"))
+
+
+@pytest.fixture(scope="module")
+def si():
+    return lsc.solve(SI_CHAIN)
+
+
+def _legend(ax):
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def _vlines(ax):
+    """x positions of the vertical event lines."""
+    return sorted(float(np.asarray(l.get_xdata())[0]) for l in ax.get_lines()
+                  if len(l.get_xdata()) == 2 and np.ptp(np.asarray(l.get_xdata(), float)) == 0
+                  and np.ptp(np.asarray(l.get_ydata(), float)) == 1)
+
+
+def test_import_lsc_does_not_import_matplotlib():
+    code = "import sys, lsc, lsc.cli, lsc.data; sys.exit('matplotlib' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+@pytest.mark.parametrize("res, t, a", [("us", "s", "ft/s^2"), ("si", "s", "m/s^2")])
+def test_acceleration(request, res, t, a):
+    r = request.getfixturevalue(res)
+    fig = plots.acceleration(r)
+    assert isinstance(fig, mpl.figure.Figure)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == f"time [{t}]"
+    assert ax.get_ylabel() == "acceleration [g]"
+    right = [c for c in ax.child_axes if c.get_ylabel()]
+    assert [c.get_ylabel() for c in right] == [f"acceleration [{a}]"]
+    names = [veh.name for veh in r.scene.vehicles]
+    assert set(names) <= set(_legend(ax))
+    # the curves are the accelerations in g, and the events are marked at their times
+    ydata = [l.get_ydata() for l in ax.get_lines() if l.get_label() in names]
+    np.testing.assert_allclose(np.column_stack(ydata), r.a / r.scene.g)
+    assert _vlines(ax) == pytest.approx(sorted(e.time for e in r.events))
+    assert "max deformation" in _legend(ax) and "separation" in _legend(ax)
+
+
+@pytest.mark.parametrize("res, unit", [("us", "ft/s"), ("si", "m/s")])
+def test_velocity(request, res, unit):
+    r = request.getfixturevalue(res)
+    fig = plots.velocity(r)
+    ax = fig.axes[0]
+    assert ax.get_ylabel() == f"velocity [{unit}]" and ax.get_xlabel() == "time [s]"
+    names = [veh.name for veh in r.scene.vehicles]
+    assert set(names) <= set(_legend(ax))
+    last = [l.get_ydata()[-1] for l in ax.get_lines() if l.get_label() in names]
+    assert last == pytest.approx(list(r.v_final))
+
+
+def test_ifd_loop_us(us):
+    fig = plots.ifd_loop(us)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "deformation [ft]" and ax.get_ylabel() == "force [lbf]"
+    assert {"bullet–target", "loading", "unloading", "max deformation"} <= set(_legend(ax))
+    lines = [l for l in ax.get_lines() if len(l.get_xdata()) > 2]
+    styles = {l.get_linestyle() for l in lines}
+    assert styles == {"-", "--"}, "loading solid, unloading dashed"
+    f = np.concatenate([np.asarray(l.get_ydata(), float) for l in lines])
+    d = np.concatenate([np.asarray(l.get_xdata(), float) for l in lines])
+    assert np.nanmax(f) == pytest.approx(us.peak_force[0])
+    assert np.nanmax(d) == pytest.approx(us.max_deformation[0])
+    # the loop closes at the permanent set
+    marks = [(float(l.get_xdata()[0]), float(l.get_ydata()[0])) for l in ax.get_lines()
+             if len(l.get_xdata()) == 1]
+    assert (pytest.approx(us.max_deformation[0]), pytest.approx(us.peak_force[0])) in marks
+    assert (pytest.approx(us.permanent_deformation[0]), pytest.approx(0.0, abs=1e-6)) in marks
+
+
+def test_ifd_loop_chain_one_entry_per_contact(si):
+    ax = plots.ifd_loop(si).axes[0]
+    assert ax.get_xlabel() == "deformation [m]" and ax.get_ylabel() == "force [N]"
+    legend = _legend(ax)
+    assert "contact 0 (A–B)" in legend and "contact 1 (B–C)" in legend
+
+
+def test_draws_on_given_axes(us):
+    fig, (a1, a2, a3) = plt.subplots(1, 3)
+    assert plots.acceleration(us, ax=a1) is fig
+    assert plots.velocity(us, ax=a2) is fig
+    assert plots.ifd_loop(us, ax=a3) is fig
+    assert len(plt.get_fignums()) == 1
+
+
+def test_save_all(us, tmp_path):
+    before = plt.get_fignums()
+    files = plots.save_all(us, tmp_path / "figs")
+    assert [f.name for f in files] == ["acceleration.png", "velocity.png", "ifd.png"]
+    for f in files:
+        assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 1000
+    assert plt.get_fignums() == before, "save_all leaves no open pyplot figures"
+
+
+def test_ifd_loop_e0_drops_at_max_deformation():
+    """e = 0: no rebound, the unloading branch is the vertical drop at D_max."""
+    r = lsc.solve(data.paper_scene("study1_restitution", 0.0))
+    ax = plots.ifd_loop(r).axes[0]
+    dashed = [l for l in ax.get_lines() if l.get_linestyle() == "--" and len(l.get_xdata())]
+    assert len(dashed) == 1
+    d, f = np.asarray(dashed[0].get_xdata(), float), np.asarray(dashed[0].get_ydata(), float)
+    assert d == pytest.approx([r.max_deformation[0]] * 2)
+    assert f == pytest.approx([r.peak_force[0], 0.0])
+    assert r.permanent_deformation[0] == pytest.approx(r.max_deformation[0])
