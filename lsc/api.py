@@ -36,7 +36,9 @@ def solve(scene, method: str | None = None, **options):
     method : str, optional
         ``"auto"`` (default: the cheapest exact backend), ``"closed-form"``, ``"scipy"``,
         ``"reference"`` (the paper's fixed-step algorithm), ``"exact"``, ``"diffrax"``.
-        Overrides the scene's ``[solver] method``.
+        Overrides the scene's ``[solver] method`` (the scene's solver options that do not apply
+        to the method given here are then left out). With ``auto``, options that do not apply to
+        the backend it picks (a tolerance, for an exact backend) are left out.
     **options
         Backend options, overriding the scene's ``[solver]`` table: ``rtol``, ``atol``,
         ``integrator`` (SciPy: ``"DOP853"`` default, ``"RK45"``, ``"LSODA"``, ``"Radau"``, ...),
@@ -49,11 +51,24 @@ def solve(scene, method: str | None = None, **options):
         Series, events and metrics in the scene's unit system.
     """
     sc = Scene.load(scene)
+    backend, opts = resolve(sc, method, options)
+    return solvers.run(HybridModel(sc), backend, opts)
+
+
+def resolve(sc: Scene, method: str | None, options: dict) -> tuple[str, dict]:
+    """The backend and the validated options a solve of scene ``sc`` uses (see :func:`solve`)."""
+    requested = method or sc.solver.method
+    backend = solvers.pick(sc, requested)
+    accepted = solvers.options_of(backend)
     opts = dict(sc.solver.options)
+    if method is not None and method != sc.solver.method:
+        # the scene's options were meant for its own method
+        opts = {k: v for k, v in opts.items() if k in accepted}
     opts.update({k: v for k, v in options.items() if v is not None or k == "atol"})
+    if requested == "auto":
+        # auto may pick an exact backend, for which tolerances are moot
+        opts = {k: v for k, v in opts.items() if k in accepted}
     for name, value in opts.items():
         if value is not None:
             _check_option(name, value)
-    backend = solvers.pick(sc, method or sc.solver.method)
-    model = HybridModel(sc)
-    return solvers.run(model, backend, opts)
+    return backend, opts

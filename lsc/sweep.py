@@ -315,7 +315,7 @@ def _progress(total: int, progress):
 
 
 # --------------------------------------------------------------------------- the sweep
-def sweep(scene, params: dict, *, method: str = "auto", grid: bool = False, progress=None,
+def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False, progress=None,
           **options) -> SweepResult:
     """Solve ``scene`` for every member of a parameter sweep.
 
@@ -326,8 +326,9 @@ def sweep(scene, params: dict, *, method: str = "auto", grid: bool = False, prog
     params : dict
         Dotted scene path → values (numbers in the scene's units, or strings with units), all of
         one length; with ``grid=True`` each array is an axis and the sweep covers their product.
-    method : str
-        ``"auto"`` (the cheapest exact backend for the base scene), or any ``lsc.solve`` method.
+    method : str, optional
+        Any ``lsc.solve`` method; by default the scene's own (``"auto"``: the cheapest exact
+        backend for the base scene).
     progress : bool or None
         Show a progress bar (``None``: only when stderr is a terminal).
     **options
@@ -341,18 +342,18 @@ def sweep(scene, params: dict, *, method: str = "auto", grid: bool = False, prog
     base = Scene.load(scene)
     values, shape = _axes(base, params, grid)
     n = int(np.prod(shape))
-    backend = solvers.pick(base, method if method != "auto" else base.solver.method)
+    from .api import resolve
+
+    backend, opts = resolve(base, method, options)
     status = _validate(base, values, n)
     metrics = _empty_metrics(base, n)
     setters = {p: _fast_setter(base, p) for p in values}
     fast = all(s is not None for s in setters.values())
-    opts = dict(base.solver.options)
-    opts.update(options)
     ok = status == "ok"
     if backend == "closed-form" and fast:
         _closed_form_batch(base, values, setters, ok, metrics)
     else:
-        _loop(base, values, backend, opts, status, metrics, progress)
+        _loop(base, values, method, options, status, metrics, progress)
     wall = time.perf_counter() - start
     return SweepResult(base, values, metrics, status, backend, tuple(shape),
                        {"wall_time": wall, "members": n, "failed": int(np.sum(status != "ok"))})
@@ -379,8 +380,11 @@ def _closed_form_batch(base, values, setters, ok, metrics):
         metrics[name][ok] = arr[ok]
 
 
-def _loop(base, values, backend, opts, status, metrics, progress):
-    """Members one by one through ``lsc.solve`` (each re-validated by the loader)."""
+def _loop(base, values, method, options, status, metrics, progress):
+    """Members one by one, as ``lsc.solve`` would do each (re-validated by the loader, with the
+    member's own solver settings)."""
+    from .api import resolve
+
     n = status.size
     bar = _progress(n, progress)
     try:
@@ -391,7 +395,8 @@ def _loop(base, values, backend, opts, status, metrics, progress):
             member = {p: float(v[j]) for p, v in values.items()}
             try:
                 sc = base.with_values(member)
-                r = solvers.run(HybridModel(sc), backend, {"n_samples": 2, **opts})
+                backend, opts = resolve(sc, method, {"n_samples": 2, **options})
+                r = solvers.run(HybridModel(sc), backend, opts)
             except (SceneError, SimulationError) as e:
                 status[j] = f"{type(e).__name__}: {e}"
                 continue

@@ -91,3 +91,21 @@ def test_sweep_csv(tmp_path):
     text = f.read_text().splitlines()
     assert text[0].startswith("vehicles.0.speed,delta_v[bullet] (ft/s)")
     assert len(text) == 3 and text[1].endswith(",ok")
+
+
+def test_sweep_over_solver_settings_uses_each_members_own():
+    from lsc import data
+
+    s = lsc.sweep(data.load("table1"), {"solver.dt": [1e-3, 1e-5]})
+    assert s.method == "reference"
+    assert [f"{v:.3f}" for v in s.v_final[:, 0]] == ["-0.082", "-0.001"]  # Table 1 rows
+
+
+def test_method_override_drops_the_scenes_own_options():
+    from lsc import data
+
+    r = lsc.solve(data.load("table1"), method="scipy")  # the scene's dt is for its reference
+    assert r.method.startswith("scipy") and "dt" not in r.tolerances
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.solve(data.load("table1"), method="scipy", dt=1e-5)  # asked for explicitly
+    assert e.value.path == "solver.dt"

@@ -2,14 +2,15 @@
 
 Each backend module solves a :class:`~lsc.model.HybridModel`; :func:`solve` picks one by name.
 ``auto`` takes the cheapest exact backend that applies: the closed form for two vehicles with
-linear loading and a straight unloading line, the event-driven SciPy solve otherwise.
+linear loading and a straight unloading line, the exact piecewise solve for other two-vehicle
+hysteresis scenes (piecewise-linear loading and unloading), the event-driven SciPy solve otherwise.
 """
 
 from __future__ import annotations
 
 from ..errors import SceneError
 
-__all__ = ["METHODS", "pick", "run"]
+__all__ = ["METHODS", "pick", "run", "options_of"]
 
 #: Accepted values of ``method``.
 METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
@@ -17,9 +18,16 @@ METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
 # Options each backend accepts (anything else is a SceneError, never silently ignored).
 _OPTIONS = {
     "closed-form": {"t_end", "n_samples"},
+    "exact": {"t_end", "n_samples", "max_events"},
     "scipy": {"rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step"},
     "reference": {"dt", "t_end", "n_samples", "max_steps"},
+    "diffrax": {"rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"},
 }
+
+
+def options_of(method: str) -> set[str]:
+    """The options backend ``method`` accepts (empty for an unknown one)."""
+    return set(_OPTIONS.get(method, ()))
 
 
 def pick(scene, method: str) -> str:
@@ -29,8 +37,10 @@ def pick(scene, method: str) -> str:
                          + ", ".join(repr(m) for m in METHODS))
     if method != "auto":
         return method
-    from . import closed_form
-    return "closed-form" if closed_form.applies(scene) else "scipy"
+    from . import closed_form, exact
+    if closed_form.applies(scene):
+        return "closed-form"
+    return "exact" if exact.applies(scene) else "scipy"
 
 
 def run(model, method: str, options: dict):
@@ -45,8 +55,12 @@ def run(model, method: str, options: dict):
                          f"{method!r}; it accepts: {', '.join(sorted(_OPTIONS[method]))}")
     if method == "closed-form":
         from .closed_form import solve
+    elif method == "exact":
+        from .exact import solve
     elif method == "scipy":
         from .scipy_ode import solve
+    elif method == "diffrax":
+        from .diffrax_ode import solve
     else:
         from .reference import solve
     return solve(model, **options)
