@@ -135,6 +135,10 @@ def _cmd_run(args) -> int:
     scene = resolve_scene(args.scene)
     result = solve(scene, method=args.method, **_solver_options(args))
     print(result.summary())
+    from .analysis.mer import format_mer
+    mer = format_mer(result)
+    if mer:
+        print("\n" + mer if isinstance(mer, str) else "\n" + "\n".join(mer))
     try:
         written = write_outputs(result, args.out, plots=not args.no_plots, extra={
             "input": args.scene or DEFAULT_SCENE, "lsc_version": __version__})
@@ -165,8 +169,13 @@ def _cmd_scenes(args) -> int:
 
 
 # --------------------------------------------------------------------------- the parser
-#: The subcommands, in the order ``lsc --help`` lists them (sweep, bound, mc: to come).
+#: The subcommands, in the order ``lsc --help`` lists them (then the analyses: bound, mc).
 COMMANDS = [_add_run, _add_scenes]
+
+
+def _analysis_commands() -> list:
+    from .analysis import cli as acli
+    return list(acli.COMMANDS)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -175,7 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="lsc", description="Low-speed collinear bumper-to-bumper crash simulation.")
     ap.add_argument("--version", action="version", version=f"lsc {__version__}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for add in COMMANDS:
+    for add in COMMANDS + _analysis_commands():
         add(sub)
     return ap
 

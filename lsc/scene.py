@@ -176,7 +176,7 @@ from .units import _type_name, to_system as _to_system, unit_factor as _unit_fac
 #: Solver methods accepted in ``[solver] method``.
 METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
 
-_TOP_KEYS = ("name", "units", "g", "vehicles", "contacts", "solver")
+_TOP_KEYS = ("name", "units", "g", "vehicles", "contacts", "solver", "uncertainty")
 _VEHICLE_KEYS = ("name", "weight", "mass", "speed", "brake")
 _BRAKE_KEYS = ("mu", "mu_static")
 _COLUMN_KEYS = ("deformation", "force")
@@ -651,6 +651,10 @@ def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
                                      f"(contacts[k] joins vehicles[k] and vehicles[k+1]), got {got}")
     contacts = tuple(_contact(c, k, ctx) for k, c in enumerate(cs))
     solver = _solver(src["solver"], ctx) if "solver" in src else SolverSettings()
+    if "uncertainty" in src and not isinstance(src["uncertainty"], _Mapping):
+        raise SceneError("uncertainty", "a table of dotted scene paths to distributions "
+                         "(used by lsc.analysis.monte_carlo / `lsc mc`), got "
+                         f"{_shown(src['uncertainty'])}")
     _check_closing(vehicles, ctx)
     return Scene(name, ctx.units, ctx.g, vehicles, contacts, solver, source, base_dir)
 

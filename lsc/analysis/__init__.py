@@ -1,0 +1,29 @@
+"""Questions asked of the model, as functions (values in the scene's unit system):
+
+- :func:`max_closing_speed`: the paper's severity bound, the speed at which the peak contact force
+  reaches a bumper failure force (Table 3), by root finding;
+- :func:`calibrate_force_scale`: the force factor that makes a measured crash-test IF-D table bring
+  the vehicles to a common velocity at its last point (the paper's 1.14, 1.18, 1.16);
+- :func:`mer`, :func:`mer_for`: Momentum–Energy–Restitution ΔVs, to set beside a simulation;
+- :func:`monte_carlo`: percentiles of ΔV, peak acceleration, pulse and peak force over sampled
+  scene parameters;
+- :func:`read_measured`, :func:`measured_curve`, :func:`series_measured`: measured force–deflection
+  data as loading curves; :func:`cfc_filter`: the SAE J211 / ISO 6487 CFC filter.
+"""
+
+from .bounds import Bound, max_closing_speed, peak_force
+from .calibration import Calibration, calibrate_force_scale, energy_force_scale
+from .filters import CFC_CLASSES, cfc_coefficients, cfc_filter, cfc_response, j211_corridor
+from .measured import (curve_table, envelope, measured_curve, read_columns, read_measured,
+                       series_measured)
+from .mer import MER, format_mer, mer, mer_for
+from .uncertainty import MonteCarlo, monte_carlo, sample
+
+__all__ = [
+    "max_closing_speed", "Bound", "peak_force",
+    "calibrate_force_scale", "energy_force_scale", "Calibration",
+    "mer", "mer_for", "format_mer", "MER",
+    "monte_carlo", "sample", "MonteCarlo",
+    "read_measured", "read_columns", "measured_curve", "series_measured", "curve_table", "envelope",
+    "cfc_filter", "cfc_coefficients", "cfc_response", "j211_corridor", "CFC_CLASSES",
+]

@@ -1,0 +1,170 @@
+"""``lsc bound`` and ``lsc mc``: subcommands for :mod:`lsc.cli` (added to its ``COMMANDS``).
+
+    lsc bound SCENE --failure-force "5000 lbf" [--contact K] [--speed-path P] [--step S]
+              [--margin-steps N] [--method M] [--json FILE]
+    lsc mc SCENE [--n N] [--seed S] [--uncertainty FILE] [--method M] [--percentiles 5,50,95]
+           [--out DIR] [--no-plots] [--no-progress]
+
+Each is a pair ``add_<name>(subparsers)`` / ``cmd_<name>(args)`` (returns the exit status), as in
+:mod:`lsc.cli`; :class:`lsc.SceneError` and :class:`lsc.SimulationError` propagate to its
+``main``, which prints them on one line and exits 2 or 1.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tomllib
+from pathlib import Path
+
+from ..errors import SceneError
+
+__all__ = ["add_bound", "cmd_bound", "add_mc", "cmd_mc", "COMMANDS", "load_with_uncertainty"]
+
+
+def _number_or_quantity(text: str):
+    try:
+        return float(text)
+    except ValueError:
+        return text  # "5000 lbf": converted (and checked) against the scene's units
+
+
+# --------------------------------------------------------------------------- lsc bound
+def add_bound(sub) -> None:
+    """Declare ``lsc bound``."""
+    from ..scene import METHODS
+    p = sub.add_parser("bound", help="closing-speed bound from a bumper failure force (paper, Table 3)",
+                       description="The speed at which the simulated peak contact force reaches the "
+                       "lowest failure force of the bumpers involved, the crash there, and the "
+                       "whole-unit rows up to the conservative bound (the paper's technique).")
+    p.add_argument("scene", metavar="SCENE", help="a scene TOML file or a packaged scene name")
+    p.add_argument("--failure-force", type=_number_or_quantity, metavar="F",
+                   help='the lowest failure force, e.g. "5000 lbf" (a bare number is in the scene\'s '
+                        "units; default: the contact's failure.force)")
+    p.add_argument("--contact", type=int, default=0, help="the contact (default 0)")
+    p.add_argument("--speed-path", default="vehicles.0.speed",
+                   help="the speed searched (default vehicles.0.speed)")
+    p.add_argument("--step", type=_number_or_quantity, default=1.0,
+                   help='the whole unit of speed for the table and the bound, e.g. "1 mph" '
+                        "(default 1 in the scene's units)")
+    p.add_argument("--margin-steps", type=int, default=1,
+                   help="steps above the first whole step at or above the root (default 1)")
+    p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
+    p.add_argument("--json", metavar="FILE", help="also write the bound as JSON")
+    p.set_defaults(func=cmd_bound)
+
+
+def cmd_bound(args) -> int:
+    """Run ``lsc bound``: print the bound's summary (and write JSON)."""
+    from ..cli import resolve_scene
+    from .bounds import max_closing_speed
+    scene = resolve_scene(args.scene)
+    b = max_closing_speed(scene, args.failure_force, contact=args.contact,
+                          speed_path=args.speed_path, method=args.method, step=args.step,
+                          margin_steps=args.margin_steps)
+    print(b.summary())
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(b.to_dict(), fh, indent=2)
+            fh.write("\n")
+    return 0
+
+
+# --------------------------------------------------------------------------- lsc mc
+def load_with_uncertainty(text: str, uncertainty: str | None = None):
+    """``(scene, distributions)`` from a scene TOML with an ``[uncertainty]`` table (or a packaged
+    scene name), plus an optional separate TOML holding the table (at its top level or under
+    ``[uncertainty]``; it extends / overrides the scene's)."""
+    from ..cli import resolve_scene
+    from ..scene import Scene
+    file = Path(text).expanduser()
+    dists: dict = {}
+    if file.is_file():
+        try:
+            src = tomllib.loads(file.read_text(encoding="utf-8-sig"))
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise SceneError("", f"cannot read {file}: {e}") from None
+        dists = dict(src.pop("uncertainty", {}) or {})
+        src.setdefault("name", file.stem)
+        scene = Scene.load(src, base_dir=file.parent.absolute())
+    else:
+        scene = resolve_scene(text)
+    if uncertainty:
+        ufile = Path(uncertainty).expanduser()
+        try:
+            extra = tomllib.loads(ufile.read_text(encoding="utf-8-sig"))
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise SceneError("uncertainty", f"cannot read {ufile}: {e}") from None
+        dists.update(extra.get("uncertainty", extra))
+    if not dists:
+        raise SceneError("uncertainty", "no distributions: add an [uncertainty] table to the scene "
+                                        "(e.g. \"vehicles.0.speed\" = { uniform = [\"4 ft/s\", \"8 ft/s\"] }) "
+                                        "or pass --uncertainty FILE")
+    return scene, dists
+
+
+def _percentiles(text: str):
+    import argparse
+    try:
+        q = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected numbers separated by commas, got {text!r}") from None
+    if not q or any(not 0 <= x <= 100 for x in q):
+        raise argparse.ArgumentTypeError(f"percentiles lie in [0, 100], got {text!r}")
+    return q
+
+
+def add_mc(sub) -> None:
+    """Declare ``lsc mc``."""
+    from ..scene import METHODS
+    p = sub.add_parser("mc", help="Monte Carlo over the scene's [uncertainty] distributions",
+                       description="Sample the scene's [uncertainty] table (dotted paths to "
+                       "{ normal = [mean, sd] }, { uniform = [lo, hi] }, { triangular = [lo, mode, "
+                       "hi] }, { choice = [...] }, { function = \"module:name\" }), solve every "
+                       "sample and print the percentiles of delta-V, peak acceleration, pulse "
+                       "duration and peak force.")
+    p.add_argument("scene", metavar="SCENE", help="a scene TOML file (with an [uncertainty] table) "
+                                                  "or a packaged scene name")
+    p.add_argument("--n", type=int, default=10_000, help="number of samples (default 10000)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--uncertainty", metavar="FILE", help="a TOML file with the distributions")
+    p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
+    p.add_argument("--percentiles", type=_percentiles, default=(5.0, 50.0, 95.0),
+                   help="comma-separated percentiles (default 5,50,95)")
+    p.add_argument("--out", metavar="DIR", help="write mc.csv (samples and metrics) and histograms here")
+    p.add_argument("--no-plots", action="store_true", help="with --out: no histogram PNGs")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_mc)
+
+
+def cmd_mc(args) -> int:
+    """Run ``lsc mc``: print the percentile table (and write CSV / histograms)."""
+    from .uncertainty import monte_carlo
+    if args.n < 1:
+        raise SceneError("n", f"the number of samples must be positive, got {args.n}")
+    scene, dists = load_with_uncertainty(args.scene, args.uncertainty)
+    mc = monte_carlo(scene, dists, args.n, seed=args.seed, method=args.method,
+                     progress=False if args.no_progress else None, percentiles=args.percentiles)
+    print(mc.summary())
+    if args.out:
+        out = Path(args.out)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            mc.sweep.to_csv(out / "mc.csv")
+            written = ["mc.csv"]
+            if not args.no_plots:
+                for metric in ("delta_v", "peak_acceleration_g", "duration", "peak_force"):
+                    fig = mc.histogram(metric)
+                    fig.savefig(out / f"mc_{metric}.png", dpi=120)
+                    written.append(f"mc_{metric}.png")
+                    import matplotlib.pyplot as plt
+                    plt.close(fig)
+        except OSError as e:
+            print(f"lsc: error: cannot write to {out}: {e.strerror or e}", file=sys.stderr)
+            return 1
+        print(f"\nwritten to {out}/: " + ", ".join(written))
+    return 0
+
+
+#: The subcommands this module adds to ``lsc.cli.COMMANDS``.
+COMMANDS = [add_bound, add_mc]

@@ -1,0 +1,89 @@
+"""``lsc bound`` and ``lsc mc`` (lsc.analysis.cli), hooked into lsc.cli as the wiring will do."""
+
+import json
+
+import pytest
+
+import lsc.cli
+
+TABLE3 = """
+name = "Table 3"
+units = "US"
+g = "32.2 ft/s^2"
+
+[[vehicles]]
+name = "bullet"
+weight = 3500
+speed = 5
+
+[[vehicles]]
+name = "target"
+weight = 3500
+speed = 0
+
+[[contacts]]
+loading = { series = [{ stiffness = 48000 }, { stiffness = 30000 }] }
+unloading = { restitution = 0.8 }
+"""
+
+UNCERTAINTY = """
+[uncertainty]
+"vehicles.0.speed" = { uniform = ["4 ft/s", "8 ft/s"] }
+contacts.0.unloading.restitution = { normal = [0.5, 0.05], min = 0, max = 1 }
+"""
+
+
+@pytest.fixture
+def main():
+    return lsc.cli.main
+
+
+def test_bound(main, tmp_path, capsys):
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    out = tmp_path / "b.json"
+    assert main(["bound", str(f), "--failure-force", "5000 lbf", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "4.991660" in text and "conservative bound" in text
+    d = json.loads(out.read_text())
+    assert d["bound_speed"] == 6.0 and [r["speed"] for r in d["rows"]] == [4.0, 5.0, 6.0]
+    assert abs(d["rows"][1]["peak_force"] - 5009) <= 2
+
+
+def test_bound_errors(main, tmp_path, capsys):
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    assert main(["bound", str(f)]) == 2                       # no failure force anywhere
+    assert "failure force" in capsys.readouterr().err
+    assert main(["bound", str(f), "--failure-force", "5000 kg"]) == 2
+    assert "lbf" in capsys.readouterr().err
+
+
+def test_mc(main, tmp_path, capsys):
+    f = tmp_path / "mc.toml"
+    f.write_text(TABLE3 + UNCERTAINTY)
+    out = tmp_path / "out"
+    assert main(["mc", str(f), "--n", "2000", "--seed", "3", "--out", str(out), "--no-progress",
+                 "--percentiles", "10,50,90"]) == 0
+    text = capsys.readouterr().out
+    assert "2000 samples (seed 3)" in text and "p90" in text
+    assert (out / "mc.csv").read_text().count("\n") == 2001
+    assert (out / "mc_delta_v.png").stat().st_size > 1000
+    # the same seed prints the same table
+    assert main(["mc", str(f), "--n", "2000", "--seed", "3", "--no-progress",
+                 "--percentiles", "10,50,90"]) == 0
+    again = capsys.readouterr().out.strip().split("\n")[4:]
+    assert again == text.split("\n\nwritten")[0].strip().split("\n")[4:]
+
+
+def test_mc_uncertainty_file_and_errors(main, tmp_path, capsys):
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    assert main(["mc", str(f), "--n", "10"]) == 2
+    assert "no distributions" in capsys.readouterr().err
+    u = tmp_path / "u.toml"
+    u.write_text('"vehicles.0.speed" = { triangular = [3, 5, 9] }\n')
+    assert main(["mc", str(f), "--n", "100", "--uncertainty", str(u), "--no-progress"]) == 0
+    assert "vehicles.0.speed" in capsys.readouterr().out
+    u.write_text('"vehicles.0.speed" = { uniform = [9, 3] }\n')
+    assert main(["mc", str(f), "--n", "100", "--uncertainty", str(u)]) == 2
