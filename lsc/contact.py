@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .scene import Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
+from scipy.optimize import brentq
 
-__all__ = ["HysteresisLaw", "make_law", "MODE_OPEN", "MODE_LOADING", "MODE_UNLOADING", "STATUS"]
+from .scene import Damping, Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
+
+__all__ = ["HysteresisLaw", "DampingLaw", "make_law", "kelvin_restitution", "kelvin_zeta",
+           "hunt_crossley_a", "brach_restitution", "MODE_OPEN", "MODE_LOADING", "MODE_UNLOADING", "STATUS"]
 
 MODE_OPEN, MODE_LOADING, MODE_UNLOADING = 0, 1, 2
 BIG = 1e300
@@ -37,6 +40,9 @@ STATUS = {
         "table or a stiffness, or a lower restitution"),
     3: ("the unloading branch returns more energy than the loading branch absorbed (restitution "
         "above 1): make the unloading stiffer than the loading curve"),
+    4: ("Brach's law cannot reach the requested restitution at this closing speed with its "
+        "compression damping c1 (no restoring damping c2 >= 0 gives it): lower the damping or "
+        "raise the restitution"),
 }
 
 
@@ -57,6 +63,7 @@ class HysteresisLaw:
 
     name = "hysteresis"
     event_kinds = ("lo", "hi", "vmax")
+    tracks_work = False  # its energies follow exactly from the curves
 
     def __init__(self, spec: Hysteresis):
         self.spec = spec
@@ -102,6 +109,11 @@ class HysteresisLaw:
     def events(D, Ddot, st):
         """(lower bound reached going down, upper bound reached going up, closing speed to 0)."""
         return (D - st["lo"], st["hi"] - D, st["vm"] * Ddot + (1.0 - st["vm"]))
+
+    @staticmethod
+    def armed(st) -> tuple:
+        """Which events can fire in this state (NumPy backends skip the others)."""
+        return (st["lo"] > -1e299, st["hi"] < 1e299, st["vm"] != 0)
 
     # ------------------------------------------------------------------ segments
     def _zero(self, xp) -> dict:
@@ -149,7 +161,7 @@ class HysteresisLaw:
         return out
 
     # ------------------------------------------------------------------ transitions
-    def init(self, D, Ddot, p: dict, xp=np) -> dict:
+    def init(self, D, Ddot, p: dict, xp=np, mu=None) -> dict:
         """State at t = 0: loading if touching (``D >= 0``) and closing, else open."""
         st = self._zero(xp)
         touching = (D >= 0) & (Ddot > 0)
@@ -185,7 +197,7 @@ class HysteresisLaw:
         return _sel(instant, self._open(new_open, xp),
                     self._unloading(new, xp.asarray(self.n_unload - 2), p, xp), xp)
 
-    def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np) -> dict:
+    def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np, mu=None, w=None) -> dict:
         """Discrete state after event ``which`` (0 = lo, 1 = hi, 2 = vmax) at deformation ``D``."""
         mode, seg = st["mode"], st["seg"]
         loading, unloading = (mode == MODE_LOADING), (mode == MODE_UNLOADING)
@@ -222,8 +234,234 @@ class HysteresisLaw:
         return "breakpoint"
 
 
-def make_law(contact):
-    """The law object of a scene contact (only the laws the scene declares are built)."""
+
+# =========================================================================== damping laws
+def _min(a, b):
+    """Elementwise minimum written with ``abs`` (NumPy and JAX alike)."""
+    return 0.5 * (a + b - abs(a - b))
+
+
+def kelvin_restitution(zeta):
+    """Restitution of the Kelvin law ``k D + c Ḋ`` with force-zero separation, for damping ratio
+    ``ζ = c / (2√(kμ)) >= 0``: ``e = exp(-2ζ arccos ζ / √(1-ζ²))`` (arccosh form for ζ > 1)."""
+    z = np.asarray(zeta, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        zu, zo = np.clip(z, 0.0, 1.0), np.maximum(z, 1.0)
+        under = np.exp(-2 * zu * np.arccos(zu) / np.sqrt(1 - zu**2))
+        over = np.exp(-2 * zo * np.arccosh(zo) / np.sqrt(zo**2 - 1))
+    return np.where(z < 1, under, np.where(z > 1, over, np.exp(-2.0)))
+
+
+def kelvin_zeta(e: float) -> float:
+    """The damping ratio ζ whose Kelvin restitution is ``e`` (``0 < e <= 1``)."""
+    if e >= 1:
+        return 0.0
+    hi = 1.0
+    while float(kelvin_restitution(hi)) > e:
+        hi *= 2.0
+    return float(brentq(lambda z: float(kelvin_restitution(z)) - e, 0.0, hi,
+                        xtol=1e-15, rtol=1e-15))
+
+
+def hunt_crossley_a(e: float) -> float:
+    """``a = α v0`` of the Hunt–Crossley law for restitution ``e`` (``0 < e <= 1``, any
+    exponent): the positive root of ``a (1 + e) = ln[(1 + a) / (1 - a e)]``."""
+    if e >= 1:
+        return 0.0
+    f = lambda a: np.log1p(a) - np.log1p(-a * e) - a * (1 + e)  # noqa: E731
+    hi = 1.0 / e
+    b = hi * (1 - 1e-12)
+    lo = 1e-6 * b
+    while f(lo) >= 0:  # f < 0 near 0 (f ≈ -(1-e²) a²/2)
+        lo /= 10
+    return float(brentq(f, lo, b, xtol=1e-16, rtol=1e-15))
+
+
+def brach_restitution(k, c1, c2, v0, mu):
+    """Restitution of Brach's law ``D (k + c Ḋ)`` (``c1`` compressing, ``c2`` restoring) for an
+    impact at closing speed ``v0`` of a pair of reduced mass ``mu``, from its energy integral:
+    ``G_c2(-e v0) = G_c1(v0)`` with ``G_c(v) = (μ k / c²)(c v/k - ln(1 + c v/k))``."""
+    def G(c, v):
+        u = c * v / k
+        return mu * v * v / k * np.where(np.abs(u) < 1e-6, 0.5 - u / 3 + u * u / 4,
+                                         (u - np.log1p(u)) / np.where(u == 0, 1, u * u))
+    target = G(c1, v0)
+    f = lambda e: G(c2, -e * v0) - target  # noqa: E731
+    hi = min(1.0, k / (c2 * v0) * (1 - 1e-15)) if c2 > 0 else 1.0
+    return float(brentq(f, 0.0, hi, xtol=1e-15, rtol=1e-15))
+
+
+def _brach_c2(k, c1, e, v0, mu, xp):
+    """The restoring coefficient ``c2`` that gives Brach's law restitution ``e`` at closing speed
+    ``v0`` (array code: a fixed bisection on ``x = c2 e v0 / k`` in [0, 1))."""
+    u1 = c1 * v0 / k
+    r1 = xp.where(xp.abs(u1) < 1e-6, 0.5 - u1 / 3 + u1 * u1 / 4,
+                  (u1 - xp.log1p(u1)) / xp.where(u1 == 0, 1.0, u1 * u1))
+    R = r1 / (e * e)
+
+    def h(x):
+        return xp.where(x < 1e-6, 0.5 + x / 3 + x * x / 4,
+                        (-x - xp.log1p(-x)) / xp.where(x == 0, 1.0, x * x))
+
+    lo, hi = xp.asarray(0.0), xp.asarray(1.0)
+    for _ in range(64):
+        mid = 0.5 * (lo + hi)
+        up = h(mid) < R
+        lo, hi = xp.where(up, mid, lo), xp.where(up, hi, mid)
+    x = 0.5 * (lo + hi)
+    return x * k / (e * v0), R >= 0.5 - 1e-15
+
+
+class DampingLaw:
+    """Spring–dashpot contact laws (the paper's "spring/dashpot" family), tension-free.
+
+    ``kelvin``: ``F = k D + c Ḋ``; ``hunt-crossley``: ``F = k D^n (1 + α Ḋ)``; ``brach``:
+    ``F = k D + c D Ḋ`` with ``c = c1`` while compressing and ``c2`` while restoring. The force
+    is never negative: the contact separates when it reaches zero (or ``D`` returns to 0) and
+    closes again when ``D`` comes back above 0.
+
+    Modes: open, compressing (``Ḋ > 0``), restoring (``Ḋ < 0``). The work done on the contact,
+    ``∫ F dD``, is integrated with the motion (one extra state), so the absorbed and returned
+    energies are exact to the solver tolerance. Coefficients given as a target restitution are
+    converted by the law's own relation: Kelvin ``ζ`` from
+    ``e = exp(-2ζ arccos ζ / √(1-ζ²))``; Hunt–Crossley ``α = a / v_c`` with
+    ``a (1+e) = ln[(1+a)/(1-a e)]`` and ``v_c`` the closing speed at contact; Brach ``c2`` from
+    its energy integral at the closing speed at contact.
+    """
+
+    tracks_work = True
+    event_kinds = ("separate", "turn", "close", "recompress")
+
+    def __init__(self, spec, mu_pair: float):
+        self.spec = spec
+        self.name = spec.law
+        k = float(spec.stiffness)
+        p = {"k": np.asarray(k)}
+        if self.name == "kelvin":
+            zeta = kelvin_zeta(spec.restitution) if spec.damping is None else \
+                spec.damping / (2 * np.sqrt(k * mu_pair))
+            p["zeta"] = np.asarray(float(zeta))
+        elif self.name == "hunt-crossley":
+            p["n"] = np.asarray(float(spec.exponent))
+            if spec.damping is None:
+                p["a"] = np.asarray(hunt_crossley_a(spec.restitution))
+                p["alpha"] = np.asarray(np.nan)
+            else:
+                p["a"] = np.asarray(np.nan)
+                p["alpha"] = np.asarray(float(spec.damping))
+        else:  # brach
+            p["c1"] = np.asarray(float(spec.damping or 0.0))
+            if spec.damping_restitution is None:
+                p["e"] = np.asarray(float(spec.restitution))
+                p["c2"] = np.asarray(np.nan)
+            else:
+                p["e"] = np.asarray(np.nan)
+                p["c2"] = np.asarray(float(spec.damping_restitution))
+        self.params = p
+
+    # ------------------------------------------------------------------ smooth pieces
+    def force(self, D, Ddot, st):
+        """Contact force [force] while in contact (0 when open)."""
+        on = st["on"]
+        if self.name == "kelvin":
+            return on * (st["k"] * D + st["c"] * Ddot)
+        if self.name == "hunt-crossley":
+            # |D|^n sign(D): the smooth-as-possible continuation below D = 0, where only a step's
+            # trial stages go (the separation event at D = 0 ends the segment)
+            Dn = abs(D) ** st["n"] * (2.0 * (D >= 0) - 1.0)
+            return on * st["k"] * Dn * (1.0 + st["c"] * Ddot)
+        return on * D * (st["k"] + st["c"] * Ddot)
+
+    def events(self, D, Ddot, st):
+        """(separation, max compression, closing, re-compression), all crossing downward."""
+        on, comp, rest = st["on"], st["comp"], 1.0 - st["comp"]
+        if self.name == "kelvin":
+            sep = st["k"] * D + st["c"] * Ddot
+        elif self.name == "hunt-crossley":
+            sep = _min(D, 1.0 + st["c"] * Ddot)
+        else:
+            sep = _min(D, st["k"] + st["c"] * Ddot)
+        return (on * sep + (1.0 - on),
+                on * comp * Ddot + (1.0 - on * comp),
+                (1.0 - on) * (-D) + on,
+                on * rest * (-Ddot) + (1.0 - on * rest))
+
+    def armed(self, st):
+        """Which events can fire in this state (NumPy backends skip the others)."""
+        on, comp = bool(st["on"]), bool(st["comp"])
+        return (on, on and comp, not on, on and not comp)
+
+    # ------------------------------------------------------------------ transitions
+    def _zero(self, p, xp):
+        z = xp.asarray(0.0)
+        st = {"mode": xp.asarray(MODE_OPEN), "on": z, "comp": z, "k": xp.asarray(p["k"], float),
+              "c": z, "c2": z, "dmax": z, "fmax": z, "dperm": z, "ec": z, "er": z, "wmark": z,
+              "status": xp.asarray(0)}
+        if self.name == "hunt-crossley":
+            st["n"] = xp.asarray(p["n"], float)
+        return st
+
+    def _close(self, st, Ddot, p, xp, mu):
+        """Contact (re)starts compressing at closing speed ``Ddot``."""
+        out = dict(st)
+        one = xp.asarray(1.0)
+        out.update(mode=xp.asarray(MODE_LOADING), on=one, comp=one)
+        if self.name == "kelvin":
+            out["c"] = 2.0 * p["zeta"] * xp.sqrt(p["k"] * mu)
+        elif self.name == "hunt-crossley":
+            given = p["alpha"] == p["alpha"]  # not NaN
+            a = xp.where(given, 0.0, p["a"])
+            out["c"] = xp.where(given, xp.where(given, p["alpha"], 0.0),
+                                a / xp.where(Ddot > 0, Ddot, 1.0))
+        else:
+            given = p["c2"] == p["c2"]
+            e = xp.where(given, 0.5, p["e"])
+            c2, ok = _brach_c2(p["k"], p["c1"], e, xp.where(Ddot > 0, Ddot, 1.0), mu, xp)
+            out["c"] = xp.asarray(p["c1"], float)
+            out["c2"] = xp.where(given, xp.where(given, p["c2"], 0.0), c2)
+            out["status"] = xp.where(given | ok | (e >= 1), st["status"], 4)
+            out["c2"] = xp.where(~given & (e >= 1), p["c1"], out["c2"])
+        return out
+
+    def init(self, D, Ddot, p, xp=np, mu=1.0):
+        """State at t = 0: compressing if touching and closing, else open."""
+        st = self._zero(p, xp)
+        return _sel((D >= 0) & (Ddot > 0), self._close(st, Ddot, p, xp, mu), st, xp)
+
+    def on_event(self, which, D, Ddot, st, p, xp=np, mu=1.0, w=0.0):
+        """State after event ``which`` (0 separate, 1 max compression, 2 close, 3 re-compress);
+        ``w`` is the contact's work integral ``∫F dD`` at the event [energy]."""
+        z, one = xp.asarray(0.0), xp.asarray(1.0)
+        sep = dict(st)
+        sep.update(mode=xp.asarray(MODE_OPEN), on=z, comp=z, dperm=D,
+                   er=st["er"] + st["wmark"] - w, wmark=w)
+        turn = dict(st)
+        F0 = self.force(D, 0.0, dict(st, on=one))
+        turn.update(mode=xp.asarray(MODE_UNLOADING), comp=z, dmax=xp.maximum(st["dmax"], D),
+                    fmax=xp.maximum(st["fmax"], F0), ec=st["ec"] + w - st["wmark"], wmark=w)
+        if self.name == "brach":
+            turn["c"] = st["c2"]
+        close = self._close(dict(st, wmark=w), Ddot, p, xp, mu)
+        rec = dict(st)
+        rec.update(mode=xp.asarray(MODE_LOADING), comp=one, er=st["er"] + st["wmark"] - w,
+                   wmark=w)
+        if self.name == "brach":
+            rec["c"] = xp.asarray(p["c1"], float)
+        return _sel(which == 0, sep, _sel(which == 1, turn, _sel(which == 2, close, rec, xp), xp), xp)
+
+    @staticmethod
+    def event_name(which: int, before: dict, after: dict) -> str:
+        """Name of what happened (for ``Result.events``)."""
+        return ("separation", "max_deformation", "contact", "recompression")[which]
+
+
+def make_law(contact, mu_pair: float = 1.0):
+    """The law object of a scene contact (only the laws the scene declares are built).
+
+    ``mu_pair`` is the reduced mass of the two vehicles it joins [mass] (a Kelvin damping given
+    as a restitution needs it)."""
     if isinstance(contact.law, Hysteresis):
         return HysteresisLaw(contact.law)
+    if isinstance(contact.law, Damping):
+        return DampingLaw(contact.law, mu_pair)
     raise TypeError(f"no contact law implements {type(contact.law).__name__}")

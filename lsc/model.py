@@ -1,15 +1,20 @@
 """A scene as a hybrid ODE: continuous state, discrete modes, right-hand side and events.
 
-The continuous state is ``y = (x_1..x_N, v_1..v_N)``, with ``x_i`` the displacement of vehicle
-``i`` from where it starts [length] and ``v_i`` its velocity [velocity]; vehicles are listed rear
-to front. Contact ``k`` joins vehicles ``k`` and ``k+1``; its deformation is
-``D_k = x_k - x_{k+1} - gap_k`` and its force ``F_k >= 0`` pushes vehicle ``k`` back and vehicle
-``k+1`` forward.
+The continuous state is ``y = (x_1..x_N, v_1..v_N, W...)``, with ``x_i`` the displacement of
+vehicle ``i`` from where it starts [length], ``v_i`` its velocity [velocity], and one work integral
+``W_k = ∫ F_k dD_k`` [energy] for each contact whose law needs it (the damping laws; the IF-D
+hysteresis has its energies in closed form). Vehicles are listed rear to front; contact ``k``
+joins vehicles ``k`` and ``k+1``, its deformation is ``D_k = x_k - x_{k+1} - gap_k`` and its force
+``F_k >= 0`` pushes vehicle ``k`` back and vehicle ``k+1`` forward.
 
-Only the effects a scene declares are assembled: the model holds one law object per contact (see
-:mod:`lsc.contact`) and nothing else, so the right-hand side evaluates no dormant term and
+Only the effects a scene declares are assembled: one law object per contact (:mod:`lsc.contact`),
+a brake effect per braked vehicle and a failure effect per contact with a failure force
+(:mod:`lsc.effects`), and nothing else — the right-hand side evaluates no dormant term and
 registers no dormant event. Every method takes the array namespace ``xp`` (``numpy`` or
-``jax.numpy``) so that all backends run this one copy of the physics.
+``jax.numpy``), so all backends run this one copy of the physics.
+
+The discrete state ``disc`` is a list: the contacts' states (K), then the brakes', then the
+failures'. Events are numbered in the same order; event ``i`` is event ``which`` of part ``j``.
 """
 
 from __future__ import annotations
@@ -17,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from .contact import STATUS, make_law
-from .errors import SimulationError
+from .effects import BrakeEffect, FailureEffect
+from .errors import SceneError, SimulationError
 
 __all__ = ["HybridModel"]
 
@@ -29,61 +35,110 @@ class HybridModel:
     ----------
     N, K : int
         Number of vehicles and of contacts.
-    laws : list
-        One contact-law object per contact.
+    laws, brakes, failures : list
+        The assembled parts: one law per contact, the declared brake and failure effects.
     params : dict
-        Numeric parameters (a pytree of arrays): ``m`` (N,) [mass], ``gap`` (K,) [length],
-        ``contacts`` (list of each law's parameter dict).
-    events : list of (k, which)
-        Event ``i`` is event ``which`` of contact ``k``; all cross zero downward.
+        Numeric parameters (a pytree of arrays): ``m`` (N,) [mass], ``v0`` (N,) [velocity],
+        ``gap`` (K,) [length], ``contacts``, ``brakes``, ``failures`` (lists of each part's dict).
+    events : list of (j, which)
+        Event ``i`` is event ``which`` of part ``j``; all cross zero downward.
+    work : list of int
+        The contacts with a work-integral state ``W`` (state index ``2N + position``).
     """
 
     def __init__(self, scene):
         self.scene = scene
-        self.N = scene.n_vehicles
+        self.N = N = scene.n_vehicles
         self.K = len(scene.contacts)
-        self.laws = [make_law(c) for c in scene.contacts]
+        m = scene.masses
+        mu = m[:-1] * m[1:] / (m[:-1] + m[1:])
+        self.laws = [make_law(c, mu[k]) for k, c in enumerate(scene.contacts)]
+        self.brakes = [BrakeEffect(i, v.brake, scene.g) for i, v in enumerate(scene.vehicles)
+                       if v.brake is not None]
+        self.failures = []
+        for k, c in enumerate(scene.contacts):
+            if c.failure is not None:
+                if c.failure.post_failure is not None:
+                    raise SceneError(f"contacts[{k}].failure.post_failure",
+                                     "a post-failure loading branch is not simulated yet; remove "
+                                     "it (the failure force alone is reported)")
+                self.failures.append(FailureEffect(k, c.failure))
+        self.parts = [*self.laws, *self.brakes, *self.failures]
+        self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
+        self.n_state = 2 * N + len(self.work)
         self.params = {
-            "m": scene.masses,
+            "m": m,
             "v0": scene.speeds,
             "gap": np.array([c.gap for c in scene.contacts], dtype=float),
             "contacts": [law.params for law in self.laws],
+            "brakes": [b.params for b in self.brakes],
+            "failures": [f.params for f in self.failures],
         }
-        self.events = [(k, w) for k, law in enumerate(self.laws) for w in range(len(law.event_kinds))]
+        self.events = [(j, w) for j, part in enumerate(self.parts)
+                       for w in range(len(part.event_kinds))]
         v = scene.speeds
         self.v_scale = float(max(np.max(np.abs(v)), np.max(np.abs(np.diff(v))), 1e-300))
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):
-        """Deformations ``D`` (K,) [length] and closing rates ``Ddot`` (K,) [velocity]."""
+        """Deformations ``D`` (K, ...) [length] and closing rates ``Ddot`` (K, ...) [velocity]."""
         N = self.N
-        x, v = y[:N], y[N:]
+        x, v = y[:N], y[N:2 * N]
         return x[:-1] - x[1:] - p["gap"], v[:-1] - v[1:]
 
+    def _mu(self, p, xp):
+        m = p["m"]
+        return m[:-1] * m[1:] / (m[:-1] + m[1:])
+
     def initial(self, p=None, xp=np):
-        """Initial continuous state ``y0`` (2N,) and discrete state (list of per-contact dicts)."""
+        """Initial continuous state ``y0`` and discrete state (list of per-part dicts)."""
         p = self.params if p is None else p
-        y0 = xp.concatenate([xp.zeros(self.N), xp.asarray(p["v0"], dtype=float)])
+        y0 = xp.concatenate([xp.zeros(self.N), xp.asarray(p["v0"], dtype=float),
+                             xp.zeros(len(self.work))])
         D, Dd = self.deformation(y0, p, xp)
-        disc = [law.init(D[k], Dd[k], p["contacts"][k], xp) for k, law in enumerate(self.laws)]
+        mu = self._mu(p, xp)
+        disc = [law.init(D[k], Dd[k], p["contacts"][k], xp, mu=mu[k])
+                for k, law in enumerate(self.laws)]
+        F = xp.stack([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
+        net = self.net_forces(F, xp)
+        disc += [b.init(y0[self.N + b.i], net[b.i], p["m"][b.i], p["brakes"][j], xp)
+                 for j, b in enumerate(self.brakes)]
+        disc += [f.init(F[f.k], p["failures"][j], xp) for j, f in enumerate(self.failures)]
         return y0, disc
 
     # ------------------------------------------------------------------ smooth pieces
     def forces(self, y, disc, p, xp=np):
-        """Contact forces (K,) [force] in the frozen discrete state."""
+        """Contact forces (K, ...) [force] in the frozen discrete state."""
         D, Dd = self.deformation(y, p, xp)
         return xp.stack([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
 
     def net_forces(self, F, xp=np):
-        """Net force on each vehicle (N, ...) [force] from the contact forces ``F`` (K, ...)."""
+        """Net contact force on each vehicle (N, ...) [force] from the contact forces (K, ...)."""
         z = xp.zeros((1,) + tuple(F.shape[1:]), dtype=F.dtype)
         return xp.concatenate([z, F]) - xp.concatenate([F, z])
 
-    def rhs(self, t, y, disc, p, xp=np):
-        """``dy/dt = (v, a)`` with ``m_i a_i = F_{i-1} - F_i``."""
+    def accelerations(self, y, disc, p, xp=np):
+        """Contact forces (K, ...), net contact forces (N, ...) and accelerations (N, ...)."""
         F = self.forces(y, disc, p, xp)
-        a = self.net_forces(F, xp) / p["m"]  # (N,)
-        return xp.concatenate([y[self.N:], a])
+        net = self.net_forces(F, xp)
+        m = p["m"].reshape((-1,) + (1,) * (net.ndim - 1))
+        a = net / m
+        if self.brakes:
+            acc = [a[i] for i in range(self.N)]
+            off = self.K
+            for j, b in enumerate(self.brakes):
+                acc[b.i] = b.accel(net[b.i], p["m"][b.i], disc[off + j], p["brakes"][j])
+            a = xp.stack(acc)
+        return F, net, a
+
+    def rhs(self, t, y, disc, p, xp=np):
+        """``dy/dt = (v, a, dW/dt)`` with ``m_i a_i = F_{i-1} - F_i`` plus the declared effects."""
+        F, _, a = self.accelerations(y, disc, p, xp)
+        parts = [y[self.N:2 * self.N], a]
+        if self.work:
+            _, Dd = self.deformation(y, p, xp)
+            parts.append(xp.stack([F[k] * Dd[k] for k in self.work]))
+        return xp.concatenate(parts)
 
     def event_values(self, t, y, disc, p, xp=np):
         """All event functions (n_events,), each crossing zero downward when it fires."""
@@ -91,70 +146,94 @@ class HybridModel:
         vals = []
         for k, law in enumerate(self.laws):
             vals.extend(law.events(D[k], Dd[k], disc[k]))
+        if self.brakes or self.failures:
+            F, net, _ = self.accelerations(y, disc, p, xp)
+            off = self.K
+            for j, b in enumerate(self.brakes):
+                vals.extend(b.events(y[self.N + b.i], net[b.i], p["m"][b.i], disc[off + j],
+                                     p["brakes"][j]))
+            off += len(self.brakes)
+            for j, f in enumerate(self.failures):
+                vals.extend(f.events(F[f.k], disc[off + j], p["failures"][j]))
         return xp.stack([xp.asarray(g, dtype=float) for g in vals])
 
     def active_events(self, disc) -> list[int]:
         """Indices of the events armed in this discrete state (NumPy backends skip the others)."""
-        out = []
-        for i, (k, w) in enumerate(self.events):
-            st = disc[k]
-            if w == 0 and st["lo"] <= -1e299:
-                continue
-            if w == 1 and st["hi"] >= 1e299:
-                continue
-            if w == 2 and st["vm"] == 0:
-                continue
-            out.append(i)
-        return out
+        armed = [a for j, part in enumerate(self.parts) for a in part.armed(disc[j])]
+        return [i for i, a in enumerate(armed) if a]
 
     # ------------------------------------------------------------------ transitions
+    def work_of(self, y, k):
+        """The work integral of contact ``k`` in state ``y`` (0 if its law keeps none)."""
+        return y[2 * self.N + self.work.index(k)] if k in self.work else 0.0
+
     def apply_event(self, i: int, t, y, disc, p, xp=np):
-        """Discrete state after event ``i`` at state ``y``; other contacts are unchanged."""
-        k, w = self.events[i]
-        D, Dd = self.deformation(y, p, xp)
+        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged."""
+        j, w = self.events[i]
         new = list(disc)
-        new[k] = self.laws[k].on_event(w, D[k], Dd[k], disc[k], p["contacts"][k], xp)
+        if j < self.K:
+            D, Dd = self.deformation(y, p, xp)
+            mu = self._mu(p, xp)
+            new[j] = self.laws[j].on_event(w, D[j], Dd[j], disc[j], p["contacts"][j], xp,
+                                           mu=mu[j], w=self.work_of(y, j))
+            return new
+        F, net, _ = self.accelerations(y, disc, p, xp)
+        b = j - self.K
+        if b < len(self.brakes):
+            eff = self.brakes[b]
+            new[j] = eff.on_event(w, y[self.N + eff.i], net[eff.i], p["m"][eff.i], disc[j],
+                                  p["brakes"][b], xp)
+            return new
+        f = b - len(self.brakes)
+        eff = self.failures[f]
+        new[j] = eff.on_event(w, F[eff.k], disc[j], p["failures"][f], xp)
         return new
 
     def event_name(self, i: int, before, after) -> str:
         """What event ``i`` was, from the discrete state before and after it."""
-        k, w = self.events[i]
-        return self.laws[k].event_name(w, before[k], after[k])
+        j, w = self.events[i]
+        return self.parts[j].event_name(w, before[j], after[j])
+
+    def event_index(self, i: int) -> int:
+        """The contact (or vehicle, for a brake event) that event ``i`` concerns."""
+        j, _ = self.events[i]
+        if j < self.K:
+            return j
+        b = j - self.K
+        if b < len(self.brakes):
+            return self.brakes[b].i
+        return self.failures[b - len(self.brakes)].k
 
     def check_status(self, disc, t: float) -> None:
-        """Raise :class:`SimulationError` if a contact reached a state the physics cannot complete."""
-        for k, st in enumerate(disc):
+        """Raise :class:`SimulationError` if a part reached a state the physics cannot complete."""
+        for k, st in enumerate(disc[: self.K]):
             code = int(st["status"])
             if code:
                 raise SimulationError(f"contact {k} at t = {t:.6g} s: {STATUS[code]}")
 
     def is_over(self, y, disc) -> bool:
-        """True when every contact is open and none is closing (no force acts any more)."""
-        if any(int(st["mode"]) != 0 for st in disc):
+        """True when every contact is open, none is closing and no braked vehicle still slides
+        (so no force acts and none can act again)."""
+        if any(int(st["mode"]) != 0 for st in disc[: self.K + len(self.brakes)]):
             return False
         _, Dd = self.deformation(np.asarray(y), self.params)
         return bool(np.all(Dd <= 1e-12 * self.v_scale))
 
     # ------------------------------------------------------------------ scales
     def time_scale(self) -> float:
-        """A rough contact time [s] from the stiffest loading slope and the lightest pair."""
+        """A rough contact time [s] from the stiffest slope and the lightest pair."""
         m = self.params["m"]
         mu = np.min(m[:-1] * m[1:] / (m[:-1] + m[1:]))
         slopes = []
         for law in self.laws:
-            ls = law.params.get("ls")
-            if ls is not None:
-                slopes.extend(np.abs(ls[np.isfinite(ls)]))
-            if "su" in law.params:
-                slopes.append(float(law.params["su"]))
+            for key in ("ls", "su", "k"):
+                val = np.asarray(law.params.get(key, []), float).reshape(-1)
+                slopes.extend(np.abs(val[np.isfinite(val)]))
         k = max([s for s in slopes if s > 0] or [1.0])
         return float(np.sqrt(mu / k))
 
     @staticmethod
     def to_python(disc) -> list[dict]:
         """A NumPy discrete state as plain Python scalars (fast in the NumPy right-hand side)."""
-        out = []
-        for st in disc:
-            out.append({key: (int(v) if key in ("mode", "seg", "status") else float(v))
-                        for key, v in st.items()})
-        return out
+        return [{key: (int(v) if key in ("mode", "seg", "status") else float(v))
+                 for key, v in st.items()} for st in disc]

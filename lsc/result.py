@@ -27,6 +27,7 @@ METRICS = {
     "restitution_energy": ("dimensionless", "contact"),
     "energy_absorbed": ("energy", "contact"),
     "energy_returned": ("energy", "contact"),
+    "failure_time": ("time", "contact"),
 }
 
 _SERIES_KINDS = {"t": "time", "x": "length", "v": "velocity", "a": "acceleration",
@@ -52,7 +53,9 @@ class Result:
     ``peak_acceleration_g``. Per contact (K,): ``max_deformation, permanent_deformation,
     peak_force, restitution`` (velocity definition, Eq. 9), ``restitution_energy`` (energy
     definition, Eq. 10: ``sqrt(returned / absorbed)``), ``energy_absorbed, energy_returned``.
-    ``duration``: first contact to last separation [time]. ``events``: list of :class:`Event`.
+    ``duration``: first contact to last separation [time]. ``failure_time`` (K,): when the
+    contact force first exceeded the contact's failure force (NaN if never; ``failed`` says
+    which). ``events``: list of :class:`Event`.
     ``method``, ``tolerances`` (rtol, atol or dt) and ``stats`` (steps, rhs evaluations,
     segments, wall time [s]) say how it was computed.
     """
@@ -82,6 +85,7 @@ class Result:
     energy_returned: np.ndarray = field(init=False)
     contact_time: np.ndarray = field(init=False)
     separation_time: np.ndarray = field(init=False)
+    failure_time: np.ndarray = field(init=False)
 
     @classmethod
     def build(cls, scene, *, t, x, v, a, deformation, force, events, contacts, v_final,
@@ -120,12 +124,27 @@ class Result:
                 r.contact_time[ev.index] = ev.time
             if "separation" in ev.kind:
                 r.separation_time[ev.index] = ev.time
+        # bumper failure: when the force first exceeded the failure force (NaN: never, or none set)
+        r.failure_time = np.full(K, np.nan)
+        for k, c in enumerate(scene.contacts):
+            if c.failure is None:
+                continue
+            times = [ev.time for ev in r.events if ev.kind == "failure" and ev.index == k]
+            if times:
+                r.failure_time[k] = times[0]
+            elif r.force.size and np.any(r.force[:, k] > c.failure.force):
+                r.failure_time[k] = r.t[np.argmax(r.force[:, k] > c.failure.force)]
         touched = np.isfinite(r.contact_time)
         if np.any(touched) and np.all(np.isfinite(r.separation_time[touched])):
             r.duration = float(np.max(r.separation_time[touched]) - np.min(r.contact_time[touched]))
         else:
             r.duration = float("nan")
         return r
+
+    @property
+    def failed(self) -> np.ndarray:
+        """Per contact (K,): True where the force exceeded the contact's failure force."""
+        return np.isfinite(self.failure_time)
 
     # ------------------------------------------------------------------ units and export
     @property

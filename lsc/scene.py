@@ -19,17 +19,19 @@ from .errors import SceneError
 
 __all__ = [
     "Scene", "Vehicle", "Brake", "Contact", "Hysteresis", "Restitution", "UnloadingStiffness",
-    "UnloadingTable", "Failure", "SolverSettings", "load_scene", "UNITS", "STANDARD_G", "METHODS",
+    "UnloadingTable", "Damping", "Failure", "SolverSettings", "load_scene", "UNITS", "STANDARD_G", "METHODS",
 ]
 
 #: Unit of each kind of quantity in each unit system (pint spelling).
 UNITS: dict[str, dict[str, str]] = {
     "SI": {"length": "m", "time": "s", "mass": "kg", "force": "N", "velocity": "m/s",
            "acceleration": "m/s^2", "stiffness": "N/m", "energy": "J", "damping": "N*s/m",
+           "slowness": "s/m", "damping_per_length": "N*s/m^2",
            "dimensionless": ""},
     "US": {"length": "ft", "time": "s", "mass": "slug", "force": "lbf", "velocity": "ft/s",
            "acceleration": "ft/s^2", "stiffness": "lbf/ft", "energy": "ft*lbf",
-           "damping": "lbf*s/ft", "dimensionless": ""},
+           "damping": "lbf*s/ft", "slowness": "s/ft", "damping_per_length": "lbf*s/ft^2",
+           "dimensionless": ""},
 }
 
 #: Standard gravity in each unit system (used for weight → mass unless the scene sets ``g``).
@@ -86,6 +88,31 @@ class Hysteresis:
     loading: Curve
     unloading: Restitution | UnloadingStiffness | UnloadingTable
     name = "hysteresis"
+
+
+@dataclass(frozen=True)
+class Damping:
+    """A spring–dashpot contact law (an effect a scene names with ``law = ...``).
+
+    ``law``: ``"kelvin"`` (``F = k D + c Ḋ``), ``"hunt-crossley"`` (``F = k D^n (1 + α Ḋ)``) or
+    ``"brach"`` (``F = k D + c D Ḋ``, ``c = c1`` compressing, ``c2`` restoring); always
+    ``F >= 0``. ``stiffness`` k [force/length^n], ``exponent`` n (Hunt–Crossley), ``damping``:
+    Kelvin c [force·time/length], Hunt–Crossley α [time/length], Brach c1
+    [force·time/length²]; ``damping_restitution``: Brach c2; or ``restitution``: the target e,
+    converted by the law's own relation.
+    """
+
+    law: str
+    stiffness: float
+    exponent: float = 1.0
+    damping: float | None = None
+    damping_restitution: float | None = None
+    restitution: float | None = None
+
+    @property
+    def name(self) -> str:
+        """The law's name."""
+        return self.law
 
 
 @dataclass(frozen=True)
@@ -492,11 +519,70 @@ def _hysteresis(spec: dict, path: str, ctx: _Ctx) -> Hysteresis:
     return Hysteresis(loading, unloading)
 
 
+def _restitution_target(spec: dict, path: str, ctx: _Ctx) -> float:
+    e = _qty(spec, "restitution", "dimensionless", ctx, path)
+    if not 0 < e <= 1:
+        raise SceneError(_p(path, "restitution"), "a damping law's target restitution must be in "
+                         f"(0, 1] (e = 0 needs an infinite damping), got {e:g}")
+    return e
+
+
+def _damping_law(law: str):
+    """The builder of a spring–dashpot law from a contact's keys."""
+    def build(spec: dict, path: str, ctx: _Ctx) -> Damping:
+        n = 1.0
+        if law == "hunt-crossley":
+            n = _qty(spec, "exponent", "dimensionless", ctx, path, default=1.0, minimum=0.0)
+        if law == "hunt-crossley" and n != 1.0:
+            kind = _stiffness_kind(n)
+            k = _qty(spec, "stiffness", kind, ctx, path, minimum=0.0)
+        else:
+            k = _qty(spec, "stiffness", "stiffness", ctx, path, minimum=0.0)
+        dkind = {"kelvin": "damping", "hunt-crossley": "slowness",
+                 "brach": "damping_per_length"}[law]
+        if law == "brach":
+            c1 = _qty(spec, "damping", dkind, ctx, path, default=0.0, minimum=0.0, strict=False)
+            if ("damping_restitution" in spec) == ("restitution" in spec):
+                raise SceneError(path, "Brach's law needs exactly one of damping_restitution (c2) "
+                                       "or restitution (the target e, which sets c2)")
+            if "restitution" in spec:
+                return Damping(law, k, n, c1, None, _restitution_target(spec, path, ctx))
+            c2 = _qty(spec, "damping_restitution", dkind, ctx, path, minimum=0.0, strict=False)
+            return Damping(law, k, n, c1, c2, None)
+        if ("damping" in spec) == ("restitution" in spec):
+            raise SceneError(path, f"the {law} law needs exactly one of damping or restitution "
+                                   "(the target e, converted by the law's own relation)")
+        if "restitution" in spec:
+            return Damping(law, k, n, None, None, _restitution_target(spec, path, ctx))
+        return Damping(law, k, n, _qty(spec, "damping", dkind, ctx, path, minimum=0.0,
+                                       strict=False), None, None)
+    return build
+
+
+def _stiffness_kind(n: float) -> str:
+    """A unit kind for force/length^n (Hunt–Crossley stiffness), registered on first use."""
+    from .units import KIND_EXAMPLES
+
+    kind = f"stiffness^{n:g}"
+    if kind not in UNITS["SI"]:
+        UNITS["SI"][kind] = f"N/m^{n:g}"
+        UNITS["US"][kind] = f"lbf/ft^{n:g}"
+        KIND_EXAMPLES[kind] = (f"60000 lbf/ft^{n:g}", f"5e6 N/m^{n:g}")
+    return kind
+
+
+_DAMPING_KEYS = ("stiffness", "damping", "restitution")
+
 #: Contact laws this loader builds: name → (law-specific keys, builder(spec, path, ctx)).
-_CONTACT_LAWS = {"hysteresis": (("loading", "unloading"), _hysteresis)}
+_CONTACT_LAWS = {
+    "hysteresis": (("loading", "unloading"), _hysteresis),
+    "kelvin": (_DAMPING_KEYS, _damping_law("kelvin")),
+    "hunt-crossley": (_DAMPING_KEYS + ("exponent",), _damping_law("hunt-crossley")),
+    "brach": (_DAMPING_KEYS + ("damping_restitution",), _damping_law("brach")),
+}
 _LAW_ALIASES = {"if-d": "hysteresis", "ifd": "hysteresis"}
 #: Laws of DESIGN.md section 1 that this loader does not build yet.
-_PLANNED_LAWS = ("kelvin", "hunt-crossley", "brach")
+_PLANNED_LAWS = ()
 
 
 def _law_name(value, path: str) -> str:

@@ -371,8 +371,9 @@ def _closed_form_batch(base, values, setters, ok, metrics):
     k = c["ls"][:, 0]
     e = c["e"] if "e" in c else np.sqrt(k / c["su"])
     with np.errstate(invalid="ignore", divide="ignore"):
+        fail = base.contacts[0].failure
         out = closed_form.metrics(p["m"][:, 0], p["m"][:, 1], p["v0"][:, 0], p["v0"][:, 1], k, e,
-                                  p["gap"][:, 0], base.g)
+                                  p["gap"][:, 0], base.g, fail.force if fail else np.nan)
     for name in metrics:
         arr = np.asarray(out[name], float)
         if metrics[name].ndim == 2 and arr.ndim == 1:

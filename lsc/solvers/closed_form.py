@@ -57,12 +57,14 @@ def parameters(scene) -> dict:
     return {"m1": m1, "m2": m2, "v1": v1, "v2": v2, "k": k, "e": float(e), "gap": c.gap}
 
 
-def metrics(m1, m2, v1, v2, k, e, gap=0.0, g=1.0) -> dict:
+def metrics(m1, m2, v1, v2, k, e, gap=0.0, g=1.0, failure_force=np.nan) -> dict:
     """Exact metrics, vectorised: every argument may be an array (broadcast together).
 
     Returns ``delta_v, v_final, peak_acceleration, peak_acceleration_g`` (..., 2) and
     ``duration, max_deformation, permanent_deformation, peak_force, restitution,
-    restitution_energy, energy_absorbed, energy_returned, contact_time, separation_time`` (...).
+    restitution_energy, energy_absorbed, energy_returned, contact_time, separation_time,
+    failure_time`` (...): the force first exceeds ``failure_force`` at
+    ``t_c + arcsin(F_fail / F_max) / ω`` (NaN if it never does).
     """
     m1, m2, v1, v2, k, e, gap = np.broadcast_arrays(*(np.asarray(a, float)
                                                       for a in (m1, m2, v1, v2, k, e, gap)))
@@ -78,6 +80,9 @@ def metrics(m1, m2, v1, v2, k, e, gap=0.0, g=1.0) -> dict:
     t_c = gap / v0
     T = np.pi / (2 * w) * (1 + e)
     dv = np.stack([dv1, dv2], axis=-1)
+    ff = np.asarray(failure_force, float)
+    with np.errstate(invalid="ignore"):
+        t_fail = np.where(fmax > ff, t_c + np.arcsin(np.minimum(ff / fmax, 1.0)) / w, np.nan)
     peak_a = np.stack([-fmax / m1, fmax / m2], axis=-1)
     return {
         "delta_v": dv,
@@ -94,6 +99,7 @@ def metrics(m1, m2, v1, v2, k, e, gap=0.0, g=1.0) -> dict:
         "energy_returned": e**2 * ec,
         "contact_time": t_c,
         "separation_time": t_c + T,
+        "failure_time": t_fail,
     }
 
 
@@ -130,7 +136,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
     scene = model.scene
     P = parameters(scene)
     m1, m2, v1, v2, k, e, gap = (P[n] for n in ("m1", "m2", "v1", "v2", "k", "e", "gap"))
-    met = metrics(m1, m2, v1, v2, k, e, gap, scene.g)
+    fail = scene.contacts[0].failure
+    met = metrics(m1, m2, v1, v2, k, e, gap, scene.g, fail.force if fail else np.nan)
     M = m1 + m2
     v0 = v1 - v2
     vcm = (m1 * v1 + m2 * v2) / M
@@ -177,4 +184,5 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
     r.peak_force = np.array([float(met["peak_force"])])
     r.peak_acceleration = np.asarray(met["peak_acceleration"], float)
     r.peak_acceleration_g = np.asarray(met["peak_acceleration_g"], float)
+    r.failure_time = np.array([float(met["failure_time"])])
     return r

@@ -28,7 +28,11 @@ def _atol(model, rtol: float, atol):
     if atol is not None:
         return float(atol)
     v = rtol * model.v_scale
-    return np.concatenate([np.full(model.N, v * model.time_scale()), np.full(model.N, v)])
+    T = model.time_scale()
+    m = np.asarray(model.params["m"], float)
+    e = v * model.v_scale * float(np.min(m))  # work integrals: an energy scale
+    return np.concatenate([np.full(model.N, v * T), np.full(model.N, v),
+                           np.full(len(model.work), e)])
 
 
 def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, t_end=None,
@@ -75,4 +79,4 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
              "segments": len(segments), "wall_time": wall}
     return build_result(model, segments, events, y, disc, method=f"scipy-{integrator}",
                         tolerances={"rtol": rtol, "atol": atol}, stats=stats,
-                        n_samples=n_samples)
+                        n_samples=n_samples, y_post=totals["y_post"])

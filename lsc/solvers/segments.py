@@ -45,7 +45,8 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
     """Run ``advance`` from segment to segment until the crash is over (or until ``t_end``).
 
     Returns ``(segments, events, y_final, disc_final, totals)`` with ``totals`` the summed
-    ``steps`` and ``nfev``. Raises :class:`SimulationError` when the event limit is reached, the
+    ``steps`` and ``nfev`` and, under ``"y_post"``, the state at the last separation (the
+    post-crash state; braked vehicles may go on sliding after it). Raises :class:`SimulationError` when the event limit is reached, the
     physics cannot go on (see :data:`lsc.contact.STATUS`) or ``t_end`` comes before the crash is over.
     """
     y, disc = model.initial()
@@ -55,10 +56,10 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
     horizon = float(t_end) if t_end is not None else 1e6 * model.time_scale() + 1.0
     segments, events = [], []
     totals = {"steps": 0, "nfev": 0}
-    if model.K and any(int(st["mode"]) for st in disc):
-        for k, st in enumerate(disc):
-            if int(st["mode"]):
-                events.append(Event(0.0, "contact", k))
+    for k, st in enumerate(disc[: model.K]):
+        if int(st["mode"]):
+            events.append(Event(0.0, "contact", k))
+    y_post = None
     while not model.is_over(y, disc):
         if len(events) >= max_events:
             raise SimulationError(
@@ -80,8 +81,10 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
                 f"no event before t = {t:.6g} s although the crash is not over: the contact "
                 "never separates (check the unloading branch)")
         new = model.to_python(model.apply_event(step.event, t, y, disc, model.params))
-        k, _ = model.events[step.event]
-        events.append(Event(t, model.event_name(step.event, disc, new), k))
+        name = model.event_name(step.event, disc, new)
+        events.append(Event(t, name, model.event_index(step.event)))
+        if "separation" in name:
+            y_post = y
         model.check_status(new, t)
         disc = new
     if t_end is not None and t_end > t:
@@ -90,16 +93,18 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
             raise SimulationError("an event fired after the crash was over")
         segments.append(Segment(t, step.t, disc, step.dense))
         t, y = step.t, np.asarray(step.y, float)
+    totals["y_post"] = y if y_post is None else y_post
     return segments, events, y, disc, totals
 
 
-def contact_records(disc) -> list[dict]:
-    """Each contact's hysteresis record from its final discrete state."""
-    return [{k: float(st[k]) for k in ("dmax", "fmax", "dperm", "ec", "er")} for st in disc]
+def contact_records(model, disc) -> list[dict]:
+    """Each contact's record (max and permanent deformation, absorbed and returned energy)."""
+    return [{k: float(st[k]) for k in ("dmax", "fmax", "dperm", "ec", "er")}
+            for st in disc[: model.K]]
 
 
 def build_result(model, segments, events, y_final, disc_final, *, method, tolerances, stats,
-                 n_samples=1000) -> Result:
+                 n_samples=1000, y_post=None) -> Result:
     """Sample every segment (both ends included) and assemble the :class:`Result`."""
     p = model.params
     total = max(sum(s.t1 - s.t0 for s in segments), 1e-300)
@@ -107,10 +112,11 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
     for s in segments:
         n = max(2, int(round(n_samples * (s.t1 - s.t0) / total)) + 1)
         tt = np.linspace(s.t0, s.t1, n)
-        yy = np.asarray(s.dense(tt), float).reshape(2 * model.N, n)
+        yy = np.asarray(s.dense(tt), float).reshape(model.n_state, n)
         pp = dict(p, gap=p["gap"][:, None])
-        Fk = np.asarray(model.forces(yy, s.disc, pp), float).reshape(model.K, n)
-        acc = (model.net_forces(Fk) / p["m"][:, None]).T
+        Fk, _, acc = model.accelerations(yy, s.disc, pp)
+        Fk = np.broadcast_to(np.asarray(Fk, float), (model.K, n))
+        acc = np.broadcast_to(np.asarray(acc, float), (model.N, n)).T
         F = Fk.T
         D, _ = model.deformation(yy, pp)
         ts.append(tt)
@@ -123,8 +129,9 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
         As, Ds, Fs = [np.zeros((1, model.N))], [np.zeros((1, model.K))], [np.zeros((1, model.K))]
     Y = np.concatenate(ys)
     N = model.N
-    return Result.build(model.scene, t=np.concatenate(ts), x=Y[:, :N], v=Y[:, N:],
+    post = np.asarray(y_final if y_post is None else y_post)
+    return Result.build(model.scene, t=np.concatenate(ts), x=Y[:, :N], v=Y[:, N:2 * N],
                         a=np.concatenate(As), deformation=np.concatenate(Ds),
                         force=np.concatenate(Fs), events=events,
-                        contacts=contact_records(disc_final), v_final=np.asarray(y_final)[N:],
+                        contacts=contact_records(model, disc_final), v_final=post[N:2 * N],
                         method=method, tolerances=tolerances, stats=stats)
