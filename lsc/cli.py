@@ -2,6 +2,7 @@
 
     lsc run [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--out DIR]
             [--no-plots]
+    lsc sweep [SCENE] --param PATH=VALUES [--param ...] [--grid] [--metric M] [--out DIR]
     lsc scenes
 
 ``SCENE`` is a TOML file or the name of a packaged scene (``lsc scenes`` lists them); without it
@@ -149,6 +150,85 @@ def _cmd_run(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- lsc sweep
+def _sweep_values(text: str):
+    """``PATH=VALUES``: ``start:stop:num`` (evenly spaced numbers in scene units) or a comma
+    list (numbers, or quantities with units such as ``5 mph``)."""
+    if "=" not in text:
+        raise SceneError("--param", f"expected PATH=VALUES (e.g. vehicles.0.speed=2:12:11), got "
+                         f"{text!r}")
+    path, values = (part.strip() for part in text.split("=", 1))
+    if values.count(":") == 2 and "," not in values:
+        try:
+            a, b, n = values.split(":")
+            num = int(n)
+            if num < 1:
+                raise ValueError
+            return path, np.linspace(float(a), float(b), num)
+        except ValueError:
+            raise SceneError(path, f"start:stop:num needs two numbers and a count >= 1, got "
+                             f"{values!r}") from None
+    items = [v.strip() for v in values.split(",") if v.strip()]
+    if not items:
+        raise SceneError(path, "no values given")
+    out = []
+    for v in items:
+        try:
+            out.append(float(v))
+        except ValueError:
+            out.append(v)  # a quantity with units, converted by the loader
+    return path, out
+
+
+def _add_sweep(sub) -> None:
+    from .result import METRICS
+    from .scene import METHODS
+    p = sub.add_parser("sweep", help="solve a scene over swept parameters: CSV table and a plot",
+                       description="Sweep scene parameters (dotted paths) and write every "
+                       "metric of every member to sweep.csv, with a plot of one metric.")
+    p.add_argument("scene", nargs="?", metavar="SCENE", help="a scene TOML file or packaged name")
+    p.add_argument("--param", action="append", required=True, metavar="PATH=VALUES",
+                   help="a swept field, e.g. vehicles.0.speed=2:12:11 or "
+                        "contacts.0.unloading.restitution=0.2,0.4,0.6 (repeatable)")
+    p.add_argument("--grid", action="store_true", help="sweep the product of the parameters")
+    p.add_argument("--method", choices=METHODS, help="backend (default: the scene's)")
+    p.add_argument("--rtol", type=_positive_float, help="relative tolerance (scipy, diffrax)")
+    p.add_argument("--dt", type=_positive_float, help="time step [s] (reference)")
+    p.add_argument("--metric", default="delta_v", choices=sorted(METRICS),
+                   help="the metric to plot (default delta_v)")
+    p.add_argument("--index", type=int, default=None,
+                   help="which vehicle/contact of a per-vehicle/contact metric to plot "
+                        "(default: the last vehicle, the first contact)")
+    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                   help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figure")
+    p.set_defaults(func=_cmd_sweep)
+
+
+def _cmd_sweep(args) -> int:
+    from .sweep import sweep
+    scene = resolve_scene(args.scene)
+    params = dict(_sweep_values(t) for t in args.param)
+    opts = {k: v for k, v in (("rtol", args.rtol), ("dt", args.dt)) if v is not None}
+    s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        s.to_csv(out / "sweep.csv")
+        written = [out / "sweep.csv"]
+        if not args.no_plots:
+            from .plots import sweep_metric
+            written.append(sweep_metric(s, args.metric, args.index, out / "sweep.png"))
+    except OSError as e:
+        _error(f"cannot write to {args.out}: {e.strerror or e}")
+        return 1
+    n, bad = s.stats["members"], s.stats["failed"]
+    print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
+          + (f", {bad} failed (see the status column)" if bad else ""))
+    print(f"written to {args.out}/: " + ", ".join(p.name for p in written))
+    return 0
+
+
 # --------------------------------------------------------------------------- lsc scenes
 def _add_scenes(sub) -> None:
     p = sub.add_parser("scenes", help="list the packaged scenes",
@@ -170,7 +250,7 @@ def _cmd_scenes(args) -> int:
 
 # --------------------------------------------------------------------------- the parser
 #: The subcommands, in the order ``lsc --help`` lists them (then the analyses: bound, mc).
-COMMANDS = [_add_run, _add_scenes]
+COMMANDS = [_add_run, _add_sweep, _add_scenes]
 
 
 def _analysis_commands() -> list:

@@ -198,3 +198,45 @@ def save_all(result, out_dir, dpi: int = 150) -> list[Path]:
         fig.savefig(out / file, dpi=dpi)
         written.append(out / file)
     return written
+
+
+def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None):
+    """One metric of a :class:`~lsc.sweep.SweepResult` against the first swept parameter (one
+    line per value of the others, for a grid). ``index`` picks the vehicle or contact of a
+    per-vehicle/contact metric (default: the last vehicle, the first contact). With ``file``
+    the figure is saved there and the path returned; otherwise the figure is returned."""
+    from matplotlib.figure import Figure
+    from .result import METRICS
+    kind, per = METRICS[metric]
+    values = np.asarray(sweep.metrics[metric], float)
+    label = metric
+    if per != "scene":
+        i = index if index is not None else (values.shape[1] - 1 if per == "vehicle" else 0)
+        values = values[:, i]
+        label += f"[{sweep.scene.vehicles[i].name if per == 'vehicle' else i}]"
+    unit = sweep.scene.unit(kind)
+    paths = list(sweep.params)
+    x = np.asarray(sweep.params[paths[0]], float)
+    if ax is None:
+        fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+        ax = fig.add_subplot()
+    else:
+        fig = ax.figure
+    if len(sweep.shape) == 2:
+        rows = x.reshape(sweep.shape)[:, 0]
+        for j in range(sweep.shape[1]):
+            other = ", ".join(f"{p} = {sweep.params[p].reshape(sweep.shape)[0, j]:g}"
+                              for p in paths[1:])
+            ax.plot(rows, values.reshape(sweep.shape)[:, j], "o-", ms=3, label=other)
+        ax.legend(fontsize=8)
+    else:
+        order = np.argsort(x)
+        ax.plot(x[order], values[order], "o-", ms=3)
+    ax.set_xlabel(paths[0])
+    ax.set_ylabel(label + (f" [{unit}]" if unit else ""))
+    ax.set_title(f"{sweep.scene.name} ({sweep.method})")
+    ax.grid(True, alpha=0.3)
+    if file is None:
+        return fig
+    fig.savefig(file, dpi=150)
+    return Path(file)

@@ -109,3 +109,28 @@ def test_method_override_drops_the_scenes_own_options():
     with pytest.raises(lsc.SceneError) as e:
         lsc.solve(data.load("table1"), method="scipy", dt=1e-5)  # asked for explicitly
     assert e.value.path == "solver.dt"
+
+
+def test_cli_sweep_writes_table_and_plot(tmp_path, capsys):
+    from lsc.cli import main
+
+    code = main(["sweep", "--param", "vehicles.0.speed=2:12:6",
+                 "--param", "contacts.0.unloading.restitution=0.2,0.8", "--grid",
+                 "--metric", "delta_v", "--out", str(tmp_path)])
+    assert code == 0
+    assert "12 members by closed-form" in capsys.readouterr().out
+    rows = (tmp_path / "sweep.csv").read_text().splitlines()
+    assert len(rows) == 13
+    head = rows[0].split(",")
+    last = dict(zip(head, rows[-1].split(",")))
+    assert float(last["vehicles.0.speed"]) == 12.0
+    assert float(last["delta_v[target] (ft/s)"]) == pytest.approx(1.8 * 6.0)
+    assert (tmp_path / "sweep.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_sweep_bad_param_is_one_line_exit_2(tmp_path, capsys):
+    from lsc.cli import main
+
+    code = main(["sweep", "--param", "vehicles.0.sped=1,2", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "vehicles.0.sped" in err[0]
