@@ -214,7 +214,13 @@ class HybridModel:
     def is_over(self, y, disc) -> bool:
         """True when every contact is open, none is closing and no braked vehicle still slides
         (so no force acts and none can act again)."""
-        if any(int(st["mode"]) != 0 for st in disc[: self.K + len(self.brakes)]):
+        if any(int(st["mode"]) != 0 for st in disc[self.K: self.K + len(self.brakes)]):
+            return False
+        return self.contacts_apart(y, disc)
+
+    def contacts_apart(self, y, disc) -> bool:
+        """True when every contact is open and none is closing (braked vehicles may still slide)."""
+        if any(int(st["mode"]) != 0 for st in disc[: self.K]):
             return False
         _, Dd = self.deformation(np.asarray(y), self.params)
         return bool(np.all(Dd <= 1e-12 * self.v_scale))

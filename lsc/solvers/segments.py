@@ -73,6 +73,8 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         segments.append(Segment(t, step.t, disc, step.dense))
         t, y = step.t, np.asarray(step.y, float)
         if step.event is None:
+            if t_end is not None and model.contacts_apart(y, disc):
+                break  # only braked vehicles still slide: the crash itself is over
             if t_end is not None:
                 raise SimulationError(
                     f"the requested end time t_end = {t_end:g} s comes before the crash is over "
