@@ -1,0 +1,788 @@
+"""Exact piecewise backend: two vehicles, IF-D hysteresis with piecewise-linear branches.
+
+Inside a segment (frozen discrete state) the contact force is affine in the deformation,
+``F = fa + s (D - da)`` (:class:`~lsc.contact.HysteresisLaw`), so with ``μ = m1 m2/(m1+m2)``
+the relative motion obeys ``μ D'' = -(fa + s (D - da)) + μ c`` while the centre of mass moves
+with constant acceleration ``A`` (``c = b1/m1 - b2/m2``, ``A = (b1+b2)/M`` for constant extra
+forces ``b1, b2`` per vehicle [force]: the hook for braking, zero for now). With ``κ = s/μ``
+[1/s²], ``D0, W0`` the deformation [length] and closing rate [velocity] and ``A0 = D''(0)``
+[acceleration] at the segment start, for every sign of ``κ``
+
+    D(τ) = D0 + W0 S(τ) + A0 C(τ),      D'(τ) = W0 + A0 S(τ) - κ W0 C(τ),
+
+with ``S = sin(ωτ)/ω, C = (1 - cos ωτ)/ω²`` (harmonic, ``κ = ω² > 0``),
+``S = τ, C = τ²/2`` (parabolic: plateaus, and free flight when open) and ``sinh, cosh``
+(hyperbolic, ``κ = -λ²``: falling tables), evaluated from half angles without cancellation.
+
+Events, analytically: the substitution ``z = (2/ω) tan(ωτ/2)`` (``τ``; ``(2/λ) tanh(λτ/2)``)
+makes ``S = z/(1 + κz²/4)``, ``C = (z²/2)/(1 + κz²/4)`` and
+``S' = (1 - κz²/4)/(1 + κz²/4)`` rational with a positive denominator, so each event
+function (the law's ``D - lo``, ``hi - D``, ``D'`` while loading, and a declared bumper
+failure force minus ``F``, all crossing zero downward) has the sign of a quadratic in ``z``. A
+quadratic has at most one downward crossing; its root, from the cancellation-free formula as a
+ratio ``num/den`` (``den = 0`` is the root at infinity, ``ωτ = π``), maps back to time by one
+``atan2`` (harmonic), ``atanh`` (hyperbolic, as ``log1p``) or directly (parabolic), only for
+the earliest event: the events of one segment are ordered by a monotone key (a pseudo-angle)
+first. No iteration and no tolerance: results agree with 40-digit arithmetic to about 1e-15
+relative. A segment starting on the surface it just crossed does not fire it again unless it
+stays on it or moves back into it (the restart trap, see :func:`_level_now`).
+
+The transitions between segments are the law's own ``on_event``, never re-derived here: on
+Python scalars for :func:`solve` (through :func:`~lsc.solvers.segments.run_segments`) and on
+NumPy arrays of many scenes at once in :func:`solve_batch`. The kernels are written once against
+a small array namespace (NumPy, or :data:`_PY` on Python floats) and shared by both paths.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contact import BIG, MODE_OPEN, STATUS, HysteresisLaw
+from ..curves import Curve
+from ..errors import SceneError
+from ..scene import Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
+from .segments import Step, build_result, run_segments
+
+__all__ = ["applies", "why_not", "solve", "solve_batch", "batch_params", "BATCH_STATUS"]
+
+#: Status codes of :func:`solve_batch`: the law's :data:`~lsc.contact.STATUS` and two of its own.
+BATCH_STATUS = {
+    **STATUS,
+    10: "event limit reached before the crash was over (raise max_events)",
+    11: ("no further event although the crash is not over (the contact never separates), "
+         "or the solution became non-finite"),
+}
+EVENT_LIMIT, NO_EVENT = 10, 11
+
+_ARMED = 1e299        # bounds beyond this are disarmed (as in HybridModel.active_events)
+
+
+# ============================================================================ namespaces
+class _PyMath:
+    """The few ``numpy`` functions the kernels and the law's transitions use, on Python scalars.
+
+    ``where`` picks a branch (both are evaluated, as with arrays), so every kernel keeps its
+    unused branches finite: no division by zero, no ``sqrt``/``atanh`` outside their domain.
+    """
+
+    inf = math.inf
+    sqrt, sin, cos = staticmethod(math.sqrt), staticmethod(math.sin), staticmethod(math.cos)
+    sinh, cosh = staticmethod(math.sinh), staticmethod(math.cosh)
+    arctan2, log1p = staticmethod(math.atan2), staticmethod(math.log1p)
+    copysign, abs = staticmethod(math.copysign), staticmethod(abs)
+    maximum, minimum = staticmethod(max), staticmethod(min)
+
+    @staticmethod
+    def searchsorted(a, v, side="left"):
+        return (bisect.bisect_right if side == "right" else bisect.bisect_left)(a, v)
+
+    @staticmethod
+    def where(cond, a, b):
+        return a if cond else b
+
+    @staticmethod
+    def asarray(x, dtype=None):
+        return x
+
+    @classmethod
+    def masked(cls, name, mask, *args):
+        """``name(*args)`` where ``mask``, else 0."""
+        return getattr(cls, name)(*args) if mask else 0.0
+
+    @staticmethod
+    def clip(x, lo, hi):
+        return min(max(x, lo), hi)
+
+
+_PY = _PyMath()
+
+
+# ============================================================================ kernels
+@dataclass
+class _Seg:
+    """One frozen-mode segment of the two-body motion (scalars or arrays of members).
+
+    ``x1, x2, v1, v2`` the state at its start [length, velocity]; ``r1, r2`` mass fractions
+    ``m1/M, m2/M``; ``V0, Acm`` centre-of-mass velocity [velocity] and acceleration
+    [acceleration]; ``D0, W0, A0`` deformation, closing rate and relative acceleration at the
+    start; ``kappa = s/μ`` [1/s²]; ``F0`` contact force at the start [force].
+    """
+
+    x1: object
+    x2: object
+    v1: object
+    v2: object
+    r1: object
+    r2: object
+    V0: object
+    Acm: object
+    D0: object
+    W0: object
+    A0: object
+    kappa: object
+    F0: object
+
+
+def _setup(x1, x2, v1, v2, m1, m2, gap, fa, s, da, b1=0.0, b2=0.0) -> _Seg:
+    """A segment from the state at its start, the active affine piece ``F = fa + s (D - da)``
+    and constant extra forces ``b1, b2`` on the vehicles [force] (braking; zero for now)."""
+    M = m1 + m2
+    r1, r2 = m1 / M, m2 / M
+    mu = m1 * m2 / M
+    D0 = x1 - x2 - gap
+    F0 = fa + s * (D0 - da)
+    return _Seg(x1=x1, x2=x2, v1=v1, v2=v2, r1=r1, r2=r2, V0=r1 * v1 + r2 * v2,
+                Acm=(b1 + b2) / M, D0=D0, W0=v1 - v2, A0=(b1 / m1 - b2 / m2) - F0 / mu,
+                kappa=s / mu, F0=F0)
+
+
+def _basis(xp, tau, kappa):
+    """``S(τ), C(τ)`` for ``D'' = -κ D + const`` (``D = D0 + W0 S + A0 C``): harmonic
+    (``κ = ω² > 0``: ``S = sin(ωτ)/ω = 2 sin h cos h/ω``,
+    ``C = (1 - cos ωτ)/ω² = 2 (sin h/ω)²``, ``h = ωτ/2``), hyperbolic (``κ = -λ²``:
+    ``sinh, cosh``) or parabolic (``S = τ, C = τ²/2``)."""
+    if isinstance(kappa, float):  # one segment (a Python float): its own branch only
+        if kappa == 0:
+            return tau, 0.5 * tau * tau
+        w = math.sqrt(abs(kappa))
+        h = 0.5 * w * tau
+        s, c = (xp.sin(h), xp.cos(h)) if kappa > 0 else (xp.sinh(h), xp.cosh(h))
+        return 2.0 * s * c / w, 2.0 * (s / w) * (s / w)
+    # members (arrays): each function only where its branch applies
+    pos, neg = kappa > 0, kappa < 0
+    w = xp.sqrt(xp.abs(kappa))
+    ws = xp.where(w > 0, w, 1.0)
+    h = 0.5 * ws * tau
+    s = xp.masked("sin", pos, h) + xp.masked("sinh", neg, h)
+    c = xp.masked("cos", pos, h) + xp.masked("cosh", neg, h)
+    sw = s / ws
+    curved = pos | neg
+    return xp.where(curved, 2.0 * s * c / ws, tau), xp.where(curved, 2.0 * sw * sw, 0.5 * tau * tau)
+
+
+def _state(xp, tau, g: _Seg):
+    """Vehicle positions and velocities ``(x1, x2, v1, v2)`` a time ``tau`` into segment ``g``,
+    as increments on its start (exact at ``tau = 0``): the centre of mass moves uniformly
+    (accelerated by ``Acm``), the deformation by ``ΔD = W0 S + A0 C`` and the closing rate by
+    ``ΔW = A0 S - κ W0 C`` (``S' - 1 = -κ C``), shared in the ratio of the masses."""
+    S, C = _basis(xp, tau, g.kappa)
+    dD = g.W0 * S + g.A0 * C
+    dW = g.A0 * S - g.kappa * g.W0 * C
+    dX = g.V0 * tau + 0.5 * g.Acm * tau * tau
+    dV = g.Acm * tau
+    return (g.x1 + dX + g.r2 * dD, g.x2 + dX - g.r1 * dD,
+            g.v1 + dV + g.r2 * dW, g.v2 + dV - g.r1 * dW)
+
+
+def _crossing(xp, a, b, c, kappa, ws, now):
+    """The first downward zero crossing at ``τ > 0`` of an event function ``g`` whose sign is
+    that of ``h(z) = a z² + b z + c`` at ``z(τ)`` (``c = g(0)``), or ``τ = 0`` where ``now``.
+
+    ``h`` has at most one downward root: ``q/a`` if ``b >= 0``, else ``c/q``, with
+    ``q = -(b + sign(b) √(b² - 4ac))/2`` (no cancellation; ``a = 0`` puts it at infinity, which
+    is ``ωτ = π`` in the harmonic case); a double root is a touch, not a crossing. A root at
+    ``τ = 0`` that is not ``now`` (a start on the surface, leaving it) counts as the next one, a
+    period later (harmonic) or never. Returns ``(key, y, x, u)``: ``key`` orders the crossings of
+    one segment in time (``inf``: none); ``τ = 2 atan2(y, x)/ω`` (harmonic), ``2 atanh(u)/λ``
+    (hyperbolic) or ``2u`` (parabolic).
+    """
+    disc = b * b - 4.0 * a * c
+    sq = xp.sqrt(xp.maximum(disc, 0.0))
+    sb = xp.copysign(1.0, b)
+    q = -0.5 * (b + sb * sq)
+    num = xp.where(sb > 0, q, c)
+    den = xp.where(sb > 0, a, q)
+    zero = num == 0
+    # harmonic, z = (2/ω) tan(ωτ/2): ωτ/2 = atan2(y, x) in [0, π] with y = ω num/2 >= 0,
+    # ordered by the pseudo-angle 1 - x/(|x| + y) in [0, 2]
+    flip = num < 0
+    y = xp.where(zero | now, 0.0, 0.5 * ws * xp.where(flip, -num, num))
+    x = xp.where(now, 1.0, xp.where(zero, -1.0, xp.where(flip, -den, den)))
+    ax = xp.abs(x)
+    pseudo = 1.0 - x / xp.where(ax + y > 0, ax + y, 1.0)
+    # parabolic (u = z/2 > 0) and hyperbolic (u = λz/2 = tanh(λτ/2) in (0, 1))
+    u = xp.where(den != 0, 0.5 * ws * num / xp.where(den != 0, den, 1.0), xp.inf)
+    u = xp.where(now, 0.0, xp.where(zero, xp.inf, u))
+    ok = ((u > 0) | now) & ((kappa >= 0) | (u < 1))
+    key = xp.where(kappa > 0, pseudo, xp.where(ok, u, xp.inf))
+    return xp.where((disc > 0) | now, key, xp.inf), y, x, u
+
+
+def _level_now(a, b, c, vtol):
+    """A level event fires at once when the segment starts on its surface (``c = 0``) and does
+    not leave it: ``h = z (a z + b)`` is not positive just after the start, for good (``a <= 0``,
+    ``b <= 0``: this includes resting on it, ``h = 0``, as on a zero-width unloading segment) or
+    by more than a rounding-level excursion (``b < -vtol``, a closing rate [velocity])."""
+    return (c == 0) & (b <= 0) & ((a <= 0) | (b < -vtol))
+
+
+def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
+    """Time ``τ`` from the segment start to the earliest armed event and which: 0, ``D`` falls
+    to ``lo``; 1, ``D`` rises to ``hi``; 2, the closing rate falls through 0 while ``vm`` (the
+    law's three); 3, the force ``F = fa + s (D - da)`` rises through ``fail = (fa, s, da, F_f)``,
+    the failure force [force] (``None``: not armed). ``τ = inf`` if none; ties go to the lower
+    index. ``vtol`` [velocity]: closing rates below it are rounding (``1e-12`` of the scene's
+    speed scale, as ``HybridModel.is_over``)."""
+    D0, W0, A0, kappa = g.D0, g.W0, g.A0, g.kappa
+    w = xp.sqrt(xp.abs(kappa))
+    ws = xp.where(w > 0, w, 1.0)
+    dl = D0 - lo
+    a = 0.25 * kappa * dl + 0.5 * A0
+    k0, y0, x0, u0 = _crossing(xp, a, W0, dl, kappa, ws, _level_now(a, W0, dl, vtol))
+    dh = hi - D0
+    a = 0.25 * kappa * dh - 0.5 * A0
+    k1, y1, x1, u1 = _crossing(xp, a, -W0, dh, kappa, ws, _level_now(a, -W0, dh, vtol))
+    # the common velocity: at once if the closing rate is not positive and falls
+    k2, y2, x2, u2 = _crossing(xp, -0.25 * kappa * W0, A0, W0, kappa, ws, (W0 <= 0) & (A0 < 0))
+    k0 = xp.where(lo > -_ARMED, k0, xp.inf)
+    k1 = xp.where(hi < _ARMED, k1, xp.inf)
+    k2 = xp.where(vm != 0, k2, xp.inf)
+    first0, first1 = (k0 <= k1) & (k0 <= k2), k1 <= k2
+    which = xp.where(first0, 0, xp.where(first1, 1, 2))
+    key = xp.minimum(xp.minimum(k0, k1), k2)
+    y = xp.where(first0, y0, xp.where(first1, y1, y2))
+    x = xp.where(first0, x0, xp.where(first1, x1, x2))
+    u = xp.where(first0, u0, xp.where(first1, u1, u2))
+    if fail is not None:
+        # the force rises through F_f where D reaches L = da + (F_f - fa)/s: going up if s > 0,
+        # going down if s < 0 (a falling table); a flat or open segment never crosses it
+        fa, s, da, ff = fail
+        up, down = s > 0, s < 0
+        level = da + (ff - fa) / xp.where(up | down, s, 1.0)
+        sign = xp.where(up, 1.0, -1.0)
+        c = sign * (level - D0)
+        a = 0.25 * kappa * c - 0.5 * sign * A0
+        k3, y3, x3, u3 = _crossing(xp, a, -sign * W0, c, kappa, ws,
+                                   _level_now(a, -sign * W0, c, vtol))
+        first3 = (k3 < key) & (up | down)
+        which = xp.where(first3, 3, which)
+        key = xp.where(first3, k3, key)
+        y, x, u = xp.where(first3, y3, y), xp.where(first3, x3, x), xp.where(first3, u3, u)
+    pos, neg = kappa > 0, kappa < 0
+    us = xp.where((u > 0) & (u < 1), u, 0.5)
+    tau = xp.where(pos, 2.0 * xp.masked("arctan2", pos, y, x) / ws,
+                   xp.where(neg, xp.masked("log1p", neg, 2.0 * us / (1.0 - us)) / ws, 2.0 * u))
+    return xp.where(key < xp.inf, tau, xp.inf), which
+
+
+# ============================================================================ applicability
+def why_not(scene) -> str | None:
+    """Why the exact backend does not apply to ``scene`` (``None`` if it does)."""
+    if scene.n_vehicles != 2:
+        return "it needs exactly two vehicles"
+    if any(v.brake is not None for v in scene.vehicles):
+        return "it has no braking yet"
+    c = scene.contacts[0]
+    if not isinstance(c.law, Hysteresis):
+        return "it needs the IF-D hysteresis contact law (piecewise-linear loading and unloading)"
+    if c.failure is not None and c.failure.post_failure is not None:
+        return "it has no post-failure branch"
+    if not c.gap >= 0:
+        return "it needs a non-negative gap"
+    return None
+
+
+def applies(scene) -> bool:
+    """True when the exact backend solves ``scene``."""
+    return why_not(scene) is None
+
+
+# ============================================================================ one scene
+class _ScalarTransitions:
+    """The model as :func:`run_segments` sees it, with the law's transitions (its own
+    ``on_event``) evaluated on Python floats and lists (namespace :data:`_PY`), about 10x cheaper
+    than NumPy on 0-d values. Everything else is the model's own."""
+
+    def __init__(self, model):
+        self._model = model
+        self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
+                    for law in model.laws]
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
+
+    def apply_event(self, i, t, y, disc, p, xp=None):
+        """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
+        k, w = self._model.events[i]
+        if k >= self._model.K:  # an effect (bumper failure): the model's own, on NumPy
+            return self._model.apply_event(i, t, y, disc, p)
+        D, Dd = self._model.deformation(np.asarray(y, float), p)
+        new = list(disc)
+        new[k] = self._model.laws[k].on_event(w, float(D[k]), float(Dd[k]), disc[k],
+                                              self._pp[k], _PY)
+        return new
+
+
+def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000):
+    """Solve a two-vehicle hysteresis ``model`` exactly, segment by segment, as a Result.
+
+    ``t_end`` [time]: simulate until then (must not cut the crash); ``n_samples``: points in the
+    sampled series (every event is a sample); ``max_events``: limit on discrete events.
+    """
+    reason = why_not(model.scene)
+    if reason:
+        raise SceneError("solver.method", f"the exact backend does not apply: {reason}; "
+                         "use method 'scipy' (or 'auto')")
+    p = model.params
+    m1, m2 = (float(m) for m in p["m"])
+    gap = float(p["gap"][0])
+    ev_index = [model.events.index((0, w)) for w in range(3)]
+    vtol = 1e-12 * model.v_scale
+
+    law = model.laws[0]
+    peak = [0.0]
+    # a declared bumper failure (of contact 0): its part, event and force
+    failure = [(model.parts.index(f), model.events.index((model.parts.index(f), 0)),
+                float(f.params["force"])) for f in getattr(model, "failures", [])]
+    ev_index += [ev for _, ev, _ in failure]
+
+    def advance(t0, y0, disc, horizon):
+        st = disc[0]
+        x1, x2, v1, v2 = (float(v) for v in y0[:4])
+        g = _setup(x1, x2, v1, v2, m1, m2, gap, st["fa"], st["s"], st["da"])
+        armed = [ff for j, _, ff in failure if not disc[j]["failed"]]
+        fail = (st["fa"], st["s"], st["da"], armed[0]) if armed else None
+        tau, which = _next_event(_PY, g, st["lo"], st["hi"], st["vm"], vtol, fail)
+        event = ev_index[which]
+        if not t0 + tau <= horizon:
+            tau, event = horizon - t0, None
+        end = _state(_PY, tau, g)
+        peak[0] = max(peak[0], g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+
+        def dense(tt, g=g, t0=t0):
+            with np.errstate(all="ignore"):
+                return np.array(_state(np, np.asarray(tt, float) - t0, g))
+
+        return Step(t0 + tau, np.array(end), event, dense, 1, 0)
+
+    start = time.perf_counter()
+    segments, events, y, disc, totals = run_segments(_ScalarTransitions(model), advance,
+                                                     t_end=t_end, max_events=max_events)
+    wall = time.perf_counter() - start
+    stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
+             "wall_time": wall}
+    r = build_result(model, segments, events, y, disc, method="exact", tolerances={},
+                     stats=stats, n_samples=n_samples)
+    # The exact peaks (at event points, see _end_force) rather than the largest samples.
+    r.peak_force = np.array([peak[0]])
+    r.peak_acceleration = np.array([-peak[0] / m1, peak[0] / m2])
+    r.peak_acceleration_g = r.peak_acceleration / model.scene.g
+    return r
+
+
+def _end_force(xp, law, D, st):
+    """Contact force at the end of a segment, ``D`` [length] clamped to the segment's range
+    ``[lo, hi]`` (an overshoot at rounding level times a very stiff unloading slope is not a
+    force). With no braking the force is monotone along each segment (``D`` is monotone while
+    ``F >= 0``), so its peak is the larger of the forces at the two ends."""
+    return law.force(xp.minimum(xp.maximum(D, st["lo"]), st["hi"]), 0.0, st)
+
+
+# ============================================================================ many scenes
+class _Rows:
+    """A per-member table standing in for one of the law's 1-D parameter arrays.
+
+    Held column-major, ``c[j, i]`` = entry ``j`` of member ``i`` (shape ``(n, B)``), possibly
+    restricted to members ``s0:s1``. ``rows[j]`` with an integer gives entry ``j`` of every member;
+    with an index array each member's own entry; a slice keeps a table. ``np.searchsorted(rows,
+    v)`` (NumPy forwards it to :meth:`searchsorted`) searches each member's own row for its own
+    ``v``. This lets the law's transition code, written for one scene's 1-D tables, run unchanged
+    on a batch.
+    """
+
+    __slots__ = ("c", "s0", "s1")
+
+    def __init__(self, c, s0=0, s1=None):
+        self.c, self.s0, self.s1 = c, s0, c.shape[1] if s1 is None else s1
+
+    def __getitem__(self, idx):
+        if isinstance(idx, slice):
+            return _Rows(np.ascontiguousarray(self.c[idx]), self.s0, self.s1)
+        idx = np.asarray(idx)
+        if idx.ndim == 0:
+            return self.c[int(idx), self.s0:self.s1]
+        flat = idx.astype(np.intp) * self.c.shape[1] + np.arange(self.s0, self.s1)
+        return self.c.reshape(-1)[flat]
+
+    def searchsorted(self, v, side="left", sorter=None):
+        cmp = np.less_equal if side == "right" else np.less
+        count = np.zeros(self.s1 - self.s0, dtype=np.intp)
+        for row in self.c[:, self.s0:self.s1]:
+            count += cmp(row, v)
+        return count
+
+    def members(self, s0, s1):
+        """The same table for members ``s0:s1`` of this one (a view)."""
+        return _Rows(self.c, self.s0 + s0, self.s0 + s1)
+
+    def take(self, keep):
+        return _Rows(np.take(self.c[:, self.s0:self.s1], keep, axis=1))
+
+
+class _NumpyRuns:
+    """``numpy`` for the batch: ``masked`` evaluates a function only where a mask holds (each
+    segment kind its own functions), and ``where`` hands back a branch as it is when its condition
+    is the same for every member, instead of copying element by element: most of the law's branch
+    selections, on a run of members in one mode and after one event. Same results as ``numpy``.
+    """
+
+    def __getattr__(self, name):
+        return getattr(np, name)
+
+    @staticmethod
+    def masked(name, mask, *args):
+        """``np.<name>(*args)`` evaluated only where ``mask`` (0 elsewhere)."""
+        out = np.zeros(np.broadcast_shapes(np.shape(mask), *(np.shape(a) for a in args)))
+        getattr(np, name)(*args, out=out, where=mask)
+        return out
+
+    @staticmethod
+    def where(cond, a, b):
+        if isinstance(cond, np.ndarray) and cond.ndim == 1 and cond.size > 64:
+            if cond.all():
+                return a
+            if not cond.any():
+                return b
+        return np.where(cond, a, b)
+
+
+_NPR = _NumpyRuns()
+
+
+def _cols(a) -> _Rows:
+    """A :class:`_Rows` from a ``(B, n)`` array."""
+    return _Rows(np.ascontiguousarray(np.asarray(a, float).T))
+
+
+def _as_rows(x, B, name, n_min=1):
+    a = np.asarray(x, float)
+    if a.ndim == 1:
+        a = np.broadcast_to(a, (B, a.size))
+    if a.ndim != 2 or a.shape[0] != B or a.shape[1] < n_min:
+        raise ValueError(f"{name} must be an array (B, n) with n >= {n_min} (B = {B}), "
+                         f"got shape {np.shape(x)}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite")
+    return np.ascontiguousarray(a)
+
+
+def _batch_inputs(params: dict) -> dict:
+    """Validated, broadcast float arrays from the :func:`solve_batch` parameters."""
+    known = {"m1", "m2", "v1", "v2", "gap", "stiffness", "load_d", "load_f", "load_end_slope",
+             "e", "unload_stiffness", "unload_d", "unload_f", "g", "failure_force"}
+    unknown = set(params) - known
+    if unknown:
+        raise ValueError(f"unknown batch parameter(s) {sorted(unknown)}; accepted: {sorted(known)}")
+    for k in ("m1", "m2", "v1", "v2"):
+        if k not in params:
+            raise ValueError(f"batch parameter {k!r} is required")
+    base = [np.asarray(params[k], float) for k in ("m1", "m2", "v1", "v2")]
+    base.append(np.asarray(params.get("gap", 0.0), float))
+    m1, m2, v1, v2, gap = (np.ascontiguousarray(a, float) for a in np.broadcast_arrays(*base))
+    if m1.ndim != 1:
+        raise ValueError("m1, m2, v1, v2, gap must be scalars or 1-D arrays")
+    B = m1.size
+    if not (np.all(m1 > 0) and np.all(m2 > 0) and np.all(np.isfinite(m1 + m2))):
+        raise ValueError("masses must be positive and finite")
+    if not (np.all(np.isfinite(v1 - v2)) and np.all(gap >= 0) and np.all(np.isfinite(gap))):
+        raise ValueError("speeds must be finite and gaps finite and >= 0")
+    out = {"m1": m1, "m2": m2, "v1": v1, "v2": v2, "gap": gap, "B": B}
+    # loading
+    if "stiffness" in params:
+        if "load_d" in params or "load_f" in params:
+            raise ValueError("give either stiffness or load_d/load_f, not both")
+        k = np.broadcast_to(np.asarray(params["stiffness"], float), (B,))
+        if not np.all((k > 0) & np.isfinite(k)):
+            raise ValueError("stiffness must be positive and finite")
+        out.update(load_d=np.zeros((B, 1)), load_f=np.zeros((B, 1)), end=k.copy())
+    else:
+        if "load_d" not in params or "load_f" not in params:
+            raise ValueError("the loading is stiffness (B,) or load_d, load_f (B, n)")
+        end = params.get("load_end_slope")
+        d = _as_rows(params["load_d"], B, "load_d", 1 if end is not None else 2)
+        f = _as_rows(params["load_f"], B, "load_f", d.shape[1])
+        if f.shape != d.shape:
+            raise ValueError("load_d and load_f must have the same shape")
+        if not (np.all(d[:, 0] == 0) and np.all(np.diff(d, axis=1) > 0) and np.all(f >= 0)):
+            raise ValueError("each loading table starts at D = 0 with strictly increasing "
+                             "deformations and forces >= 0")
+        if end is not None:
+            end = np.broadcast_to(np.asarray(end, float), (B,)).copy()
+            if not np.all(np.isfinite(end)):
+                raise ValueError("load_end_slope must be finite (give None for tables that end)")
+        out.update(load_d=d, load_f=f, end=end)
+    # unloading
+    kinds = [k for k in ("e", "unload_stiffness", "unload_d") if k in params]
+    if len(kinds) != 1:
+        raise ValueError("give exactly one unloading rule: e (B,), unload_stiffness (B,) or "
+                         "unload_d, unload_f (B, n) in time order")
+    if kinds[0] == "e":
+        e = np.broadcast_to(np.asarray(params["e"], float), (B,)).copy()
+        if not np.all((e >= 0) & (e <= 1)):
+            raise ValueError("restitution e must be in [0, 1]")
+        out["e"] = e
+    elif kinds[0] == "unload_stiffness":
+        su = np.broadcast_to(np.asarray(params["unload_stiffness"], float), (B,)).copy()
+        if not np.all((su > 0) & np.isfinite(su)):
+            raise ValueError("unload_stiffness must be positive and finite")
+        out["su"] = su
+    else:
+        ud = _as_rows(params["unload_d"], B, "unload_d", 2)
+        uf = _as_rows(params.get("unload_f"), B, "unload_f", 2)
+        if uf.shape != ud.shape:
+            raise ValueError("unload_d and unload_f must have the same shape")
+        if not (np.all(np.diff(ud, axis=1) < 0) and np.all(uf[:, 0] > 0) and np.all(uf[:, -1] == 0)
+                and np.all(uf >= 0)):
+            raise ValueError("each unloading table runs in time order from (D0, F0 > 0) to zero "
+                             "force with strictly decreasing deformations")
+        out.update(unload_d=ud, unload_f=uf)
+    g = params.get("g")
+    out["g"] = None if g is None else np.broadcast_to(np.asarray(g, float), (B,))
+    ff = params.get("failure_force")
+    if ff is not None:
+        ff = np.broadcast_to(np.asarray(ff, float), (B,)).copy()
+        if np.any(ff <= 0):
+            raise ValueError("failure_force must be positive (inf or nan: none)")
+        ff[np.isnan(ff)] = np.inf
+    out["failure_force"] = ff
+    return out
+
+
+def _batch_law(P: dict):
+    """One :class:`HysteresisLaw` (its code and its shape constants: table lengths, unloading
+    kind) and the batched parameter dict ``p`` for it, built for every member with the same
+    arithmetic as ``HysteresisLaw.__init__`` for one scene (the tests compare them), tables as
+    :class:`_Rows`. Returns ``(law, p, per_member)``, the keys of ``p`` that vary by member."""
+    d, f, end = P["load_d"], P["load_f"], P["end"]
+    B, n = d.shape
+    dT, fT = np.ascontiguousarray(d.T), np.ascontiguousarray(f.T)   # (n, B): entry, member
+    ld, lf, ls, le = (np.empty((n + 1, B)) for _ in range(4))
+    ld[:n], ld[n] = dT, BIG
+    lf[:n], lf[n] = fT, fT[n - 1]
+    dd = dT[1:] - dT[:-1]
+    with np.errstate(all="ignore"):
+        ls[:n - 1] = (fT[1:] - fT[:-1]) / dd
+    ls[n - 1] = 0.0 if end is None else end
+    ls[n] = 0.0
+    le[0] = 0.0
+    np.cumsum(0.5 * (fT[1:] + fT[:-1]) * dd, axis=0, out=le[1:n])
+    le[n] = le[n - 1]
+    p = {"ld": _Rows(ld), "lf": _Rows(lf), "ls": _Rows(ls), "le": _Rows(le)}
+    curve = Curve(d[0], f[0], None if end is None else end[0])
+    if "e" in P:
+        rule = Restitution(float(P["e"][0]))
+    elif "su" in P:
+        rule = UnloadingStiffness(float(P["su"][0]))
+    else:
+        rule = UnloadingTable(P["unload_d"][0], P["unload_f"][0])
+    law = HysteresisLaw(Hysteresis(curve, rule))
+    if "e" in P:
+        p.update(e=P["e"], ud=law.params["ud"], uf=law.params["uf"], ue=law.params["ue"])
+    elif "su" in P:
+        p.update(su=P["su"], ud=law.params["ud"], uf=law.params["uf"], ue=law.params["ue"])
+    else:
+        ud, uf = P["unload_d"][:, ::-1], P["unload_f"][:, ::-1]
+        ud = ud - ud[:, -1:]
+        p.update(ud=_cols(ud), uf=_cols(uf),
+                 ue=np.sum(0.5 * (uf[:, 1:] + uf[:, :-1]) * np.diff(ud, axis=1), axis=1))
+    per_member = [k for k, v in p.items() if isinstance(v, _Rows)]
+    per_member += [k for k in ("e", "su") if k in p]
+    if "unload_d" in P:
+        per_member.append("ue")
+    return law, p, per_member
+
+
+def solve_batch(params: dict, *, max_events: int = 10_000) -> dict:
+    """Exact metrics of many two-vehicle hysteresis scenes at once (vectorised over scenes).
+
+    Parameters (arrays over ``B`` scenes, scene units; scalars broadcast)
+    ----------------------------------------------------------------------
+    m1, m2 : (B,) masses [mass]; v1, v2 : (B,) initial speeds [velocity]; gap : (B,) [length]
+    stiffness : (B,) linear loading [force/length], or load_d, load_f : (B, n) loading tables
+        (``D = 0`` first, equal length ``n``) with optional load_end_slope : (B,) (all extend or
+        none) [force/length]
+    e : (B,) restitution, or unload_stiffness : (B,) [force/length], or unload_d, unload_f :
+        (B, nu) measured rebound curves in time order (mapped onto ``(D_max, F_max)``)
+    g : optional (B,) gravity [acceleration], for ``peak_acceleration_g``
+    failure_force : optional (B,) bumper failure force [force] (inf or nan: none), for
+        ``failure_time``
+
+    Every member advances its own segment each iteration (finished members leave the batch);
+    the transitions are the law's ``on_event`` on arrays (:class:`_Rows` gives per-member table
+    lookups). Returns a dict of the Result metrics: ``delta_v, v_final, peak_acceleration``
+    (B, 2) [velocity, acceleration], ``duration, peak_force, max_deformation,
+    permanent_deformation, restitution`` (velocity definition), ``restitution_energy,
+    energy_absorbed, energy_returned, contact_time, separation_time, failure_time`` (B,; the
+    failure time is NaN where the force never exceeds the failure force), ``events`` (B,) and
+    ``status`` (B,): 0 ok, else a code of :data:`BATCH_STATUS` (the metrics are then ``nan``).
+    """
+    P = _batch_inputs(params)
+    law, p, per_member = _batch_law(P)
+    B = P["B"]
+    out = {k: np.full(B, np.nan) for k in ("v1", "v2", "dmax", "fmax", "dperm", "ec", "er",
+                                            "fpk", "tc", "ts", "tf")}
+    out_status = np.zeros(B, dtype=int)
+    out_events = np.zeros(B, dtype=int)
+    v1, v2 = P["v1"], P["v2"]
+    # the working set: one entry per member still in the batch (ix: its index in the input)
+    w = {"ix": np.arange(B), "m1": P["m1"], "m2": P["m2"], "gap": P["gap"],
+         "x1": np.zeros(B), "x2": np.zeros(B), "v1": v1.copy(), "v2": v2.copy(), "t": np.zeros(B),
+         "fpk": np.zeros(B), "ts": np.full(B, np.nan), "tf": np.full(B, np.nan),
+         "ff": np.full(B, np.inf) if P["failure_force"] is None else P["failure_force"],
+         "vscale": np.maximum(np.maximum(np.abs(v1), np.abs(v2)),
+                              np.maximum(np.abs(v1 - v2), 1e-300))}
+    with np.errstate(all="ignore"):
+        st = law.init(w["x1"] - w["x2"] - w["gap"], v1 - v2, p, np)
+        st = {k: np.array(np.broadcast_to(v, (B,))) for k, v in st.items()}
+        touching = st["mode"] != MODE_OPEN
+        w["nev"] = touching.astype(int)
+        w["tc"] = np.where(touching, 0.0, np.nan)
+        w["status"] = st["status"].astype(int)
+        while True:
+            # members whose crash is over (or cannot go on) leave the batch with their record
+            over = (st["mode"] == MODE_OPEN) & (w["v1"] - w["v2"] <= 1e-12 * w["vscale"])
+            code = np.where(w["status"] != 0, w["status"],
+                            np.where(over, 0, np.where(w["nev"] >= max_events, EVENT_LIMIT, -1)))
+            fin = code >= 0
+            if fin.any():
+                j = w["ix"][fin]
+                for key in ("v1", "v2", "fpk", "tc", "ts", "tf"):
+                    out[key][j] = w[key][fin]
+                for key in ("dmax", "fmax", "dperm", "ec", "er"):
+                    out[key][j] = st[key][fin]
+                out_status[j] = code[fin]
+                out_events[j] = w["nev"][fin]
+                if fin.all():
+                    break
+            # one segment for every member: the earliest armed event and the state there
+            n_live = w["ix"].size
+            g = _setup(w["x1"], w["x2"], w["v1"], w["v2"], w["m1"], w["m2"], w["gap"],
+                       st["fa"], st["s"], st["da"])
+            fail = None
+            if P["failure_force"] is not None:  # armed until it has fired (then inf)
+                fail = (st["fa"], st["s"], st["da"], w["ff"])
+            tau, which = _next_event(_NPR, g, st["lo"], st["hi"], st["vm"], 1e-12 * w["vscale"],
+                                     fail)
+            tau, which = np.broadcast_to(tau, (n_live,)), np.broadcast_to(which, (n_live,))
+            bad = ~np.isfinite(tau)
+            tau = np.where(bad, 0.0, tau)
+            w["x1"], w["x2"], w["v1"], w["v2"] = _state(_NPR, tau, g)
+            w["t"] = w["t"] + tau
+            bad |= ~np.isfinite(w["x1"] + w["x2"] + w["v1"] + w["v2"])
+            D, W = w["x1"] - w["x2"] - w["gap"], w["v1"] - w["v2"]
+            w["fpk"] = np.maximum(w["fpk"], np.maximum(g.F0, _end_force(np, law, D, st)))
+            # keep the members still running, grouped by (mode, event): the law's branch
+            # selections (where) then see long runs of equal conditions, several times faster
+            live = np.flatnonzero(~fin)
+            key = (st["mode"] * 4 + which)[live].astype(np.int8)
+            order = np.argsort(key, kind="stable")
+            perm, key = live[order], key[order]
+            w = {k: np.take(v, perm) for k, v in w.items()}
+            st = {k: np.take(v, perm) for k, v in st.items()}
+            p = {k: ((v.take(perm) if isinstance(v, _Rows) else np.take(v, perm))
+                     if k in per_member else v) for k, v in p.items()}
+            which, bad, D, W = (np.take(a, perm) for a in (which, bad, D, W))
+            # the law's transition, on each run of members with the same (mode, event)
+            b = perm.size
+            cuts = [0, *(np.flatnonzero(np.diff(key)) + 1), b]
+            parts = []
+            for s0, s1 in zip(cuts[:-1], cuts[1:]):
+                pg = {k: (v.members(s0, s1) if isinstance(v, _Rows) else v[s0:s1])
+                      if k in per_member else v for k, v in p.items()}
+                sg = {k: v[s0:s1] for k, v in st.items()}
+                ng = law.on_event(which[s0:s1], D[s0:s1], W[s0:s1], sg, pg, _NPR)
+                parts.append({k: np.broadcast_to(v, (s1 - s0,)) for k, v in ng.items()})
+            new = {k: np.concatenate([pt[k] for pt in parts]) for k in st}
+            for k in ("mode", "seg", "status"):
+                new[k] = new[k].astype(int, copy=False)
+            keep = bad | (which == 3)  # (a bumper failure changes no contact state)
+            if keep.any():
+                new = {k: np.where(keep, st[k], v) for k, v in new.items()}
+                failed = (which == 3) & ~bad
+                w["tf"] = np.where(failed, w["t"], w["tf"])
+                w["ff"] = np.where(failed, np.inf, w["ff"])
+            opened = (new["mode"] == MODE_OPEN) & (st["mode"] != MODE_OPEN)
+            closed = (new["mode"] != MODE_OPEN) & (st["mode"] == MODE_OPEN)
+            w["tc"] = np.where(closed & np.isnan(w["tc"]), w["t"], w["tc"])
+            w["ts"] = np.where(opened, w["t"], w["ts"])
+            w["nev"] = w["nev"] + ~bad
+            w["status"] = np.where(bad, NO_EVENT, new["status"]).astype(int)
+            st = new
+    return _batch_metrics(P, out, out_status, out_events)
+
+
+def _batch_metrics(P, out, status, events) -> dict:
+    """The Result metrics from each member's final velocities and hysteresis record."""
+    ok = status == 0
+    nan = np.where(ok, 1.0, np.nan)
+    v0 = np.stack([P["v1"], P["v2"]], axis=1)
+    vf = np.stack([out["v1"], out["v2"]], axis=1) * nan[:, None]
+    fpk = out["fpk"] * nan
+    with np.errstate(all="ignore"):
+        res = {
+            "delta_v": vf - v0,
+            "v_final": vf,
+            "peak_acceleration": np.stack([-fpk / P["m1"], fpk / P["m2"]], axis=1),
+            "duration": (out["ts"] - out["tc"]) * nan,
+            "peak_force": fpk,
+            "max_deformation": out["dmax"] * nan,
+            "permanent_deformation": out["dperm"] * nan,
+            "restitution": (vf[:, 1] - vf[:, 0]) / (P["v1"] - P["v2"]),
+            "restitution_energy": np.sqrt(out["er"] / out["ec"]) * nan,
+            "energy_absorbed": out["ec"] * nan,
+            "energy_returned": out["er"] * nan,
+            "contact_time": out["tc"] * nan,
+            "separation_time": out["ts"] * nan,
+            "failure_time": out["tf"] * nan,
+        }
+        if P["g"] is not None:
+            res["peak_acceleration_g"] = res["peak_acceleration"] / P["g"][:, None]
+    res["events"] = events
+    res["status"] = status
+    return res
+
+
+def batch_params(scenes) -> dict:
+    """:func:`solve_batch` parameters from scenes the exact backend applies to, whose loading
+    curves have equal numbers of points (all extending or none) and whose unloading rules are of
+    one kind (tables of equal length)."""
+    scenes = list(scenes)
+    if not scenes:
+        raise ValueError("no scenes")
+    for i, sc in enumerate(scenes):
+        reason = why_not(sc)
+        if reason:
+            raise ValueError(f"scene {i}: the exact backend does not apply: {reason}")
+    laws = [sc.contacts[0].law for sc in scenes]
+    curves = [law.loading for law in laws]
+    if len({c.d.size for c in curves}) != 1 or len({c.extends for c in curves}) != 1:
+        raise ValueError("the loading curves must have equal numbers of points, all extending "
+                         "or none")
+    kinds = {type(law.unloading) for law in laws}
+    if len(kinds) != 1:
+        raise ValueError("the unloading rules must all be of one kind")
+    out = {"m1": [sc.masses[0] for sc in scenes], "m2": [sc.masses[1] for sc in scenes],
+           "v1": [sc.speeds[0] for sc in scenes], "v2": [sc.speeds[1] for sc in scenes],
+           "gap": [sc.contacts[0].gap for sc in scenes], "g": [sc.g for sc in scenes],
+           "load_d": np.stack([c.d for c in curves]), "load_f": np.stack([c.f for c in curves])}
+    if curves[0].extends:
+        out["load_end_slope"] = [c.end_slope for c in curves]
+    fails = [sc.contacts[0].failure for sc in scenes]
+    if any(f is not None for f in fails):
+        out["failure_force"] = [np.inf if f is None else f.force for f in fails]
+    kind = kinds.pop()
+    if kind is Restitution:
+        out["e"] = [law.unloading.e for law in laws]
+    elif kind is UnloadingStiffness:
+        out["unload_stiffness"] = [law.unloading.stiffness for law in laws]
+    else:
+        if len({law.unloading.d.size for law in laws}) != 1:
+            raise ValueError("the unloading tables must have equal numbers of points")
+        out["unload_d"] = np.stack([np.asarray(law.unloading.d, float) for law in laws])
+        out["unload_f"] = np.stack([np.asarray(law.unloading.f, float) for law in laws])
+    return {k: np.asarray(v, float) for k, v in out.items()}
