@@ -190,8 +190,10 @@ class HysteresisLaw:
         if self.unload_kind != "restitution":
             status = xp.where(new["er"] > ec * (1 + 1e-12), 3, status)
         new["status"] = status
-        # No rebound (e = 0, or no force at the common velocity): separate at once.
-        instant = (dscale <= 0) | (F <= 0)
+        # No rebound (e = 0, a rebound narrower than rounding, or no force at the common
+        # velocity): separate at once. (An unloading line a few ulps wide would have a slope
+        # made of rounding errors; the energy it returns, e² E_c, is below rounding as well.)
+        instant = (dscale <= 8.9e-16 * abs(D)) | (F <= 0)
         new_open = dict(new)
         new_open.update(dperm=D, dscale=xp.asarray(0.0), er=xp.asarray(0.0))
         return _sel(instant, self._open(new_open, xp),

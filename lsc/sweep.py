@@ -167,6 +167,8 @@ def _read_back(scene: Scene, path: str) -> float:
             return c.law.unloading.stiffness
         if parts[2:] == ["loading", "stiffness"]:
             return c.law.loading.stiffness
+        if parts[2:] == ["loading", "scale"]:
+            return float(scene.source["contacts"][int(parts[1])]["loading"].get("scale", 1.0))
     raise SceneError(path, "values with units are accepted only for speeds, masses, weights, gaps "
                            "and stiffnesses; give plain numbers in the scene's units")
 
@@ -201,7 +203,16 @@ def _fast_setter(scene: Scene, path: str):
                 return lambda p, v: p["contacts"][k].__setitem__("su", v)
             if tail == ["loading", "stiffness"] and law.loading.is_linear:
                 return lambda p, v: p["contacts"][k]["ls"].__setitem__((slice(None), 0), v)
-    except (ValueError, AttributeError):
+            if tail == ["loading", "scale"] and hasattr(law, "loading"):
+                base = float(scene.source["contacts"][k]["loading"].get("scale", 1.0))
+
+                def scale(p, v, k=k, base=base):
+                    c = p["contacts"][k]
+                    f = (np.asarray(v, float) / base)[:, None]
+                    for key in ("lf", "ls", "le"):
+                        c[key] = c[key] * f
+                return scale
+    except (ValueError, AttributeError, KeyError, TypeError):
         return None
     return None
 

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from ..errors import SimulationError
 from .segments import Step, build_result, run_segments
@@ -33,6 +34,34 @@ def _atol(model, rtol: float, atol):
     e = v * model.v_scale * float(np.min(m))  # work integrals: an energy scale
     return np.concatenate([np.full(model.N, v * T), np.full(model.N, v),
                            np.full(len(model.work), e)])
+
+
+def _missed(model, disc, p, sol, active, best, tb, yb):
+    """An armed event that crossed zero and back inside one step is invisible to SciPy's sign
+    test at step ends (e.g. a table breakpoint just below the max deformation, crossed on the
+    way up and down within the step that holds the common velocity). Every armed event is
+    checked at the end of the segment: one that is negative there crossed earlier, and its first
+    crossing is located on the dense output (Brent) and taken if it comes first."""
+    g_end = model.event_values(tb, yb, disc, p)
+    ts = sol.t
+    for i in active:
+        if i == best or not g_end[i] < 0:
+            continue
+
+        def g(t, i=i):
+            return model.event_values(t, sol.sol(t), disc, p)[i]
+
+        # the last step start where the event was still on its positive side
+        k = int(np.searchsorted(ts, tb, side="left")) - 1
+        while k > 0 and g(ts[k]) < 0:
+            k -= 1
+        a = float(ts[max(k, 0)])
+        if not g(a) >= 0 or a >= tb:
+            continue
+        root = brentq(g, a, tb, xtol=1e-15, rtol=1e-15, maxiter=200)
+        if root < tb:
+            best, tb, yb = i, float(root), sol.sol(root)
+    return best, tb, yb
 
 
 def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, t_end=None,
@@ -63,13 +92,14 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         if sol.status == -1:
             raise SimulationError(f"SciPy {integrator} failed at t = {sol.t[-1]:.6g} s: {sol.message}")
         steps, nfev = len(sol.t) - 1, sol.nfev
+        best, tb, yb = None, float(sol.t[-1]), sol.y[:, -1]
         if sol.status == 1:
-            best, tb, yb = None, np.inf, None
+            tb = np.inf
             for j, i in enumerate(active):
                 if len(sol.t_events[j]) and sol.t_events[j][0] < tb:
                     best, tb, yb = i, float(sol.t_events[j][0]), sol.y_events[j][0]
-            return Step(tb, yb, best, sol.sol, steps, nfev)
-        return Step(float(sol.t[-1]), sol.y[:, -1], None, sol.sol, steps, nfev)
+        best, tb, yb = _missed(model, disc, p, sol, active, best, tb, yb)
+        return Step(tb, yb, best, sol.sol, steps, nfev)
 
     start = time.perf_counter()
     segments, events, y, disc, totals = run_segments(model, advance, t_end=t_end,
