@@ -56,7 +56,7 @@ def _missed(model, disc, p, sol, active, best, tb, yb):
         while k > 0 and g(ts[k]) < 0:
             k -= 1
         a = float(ts[max(k, 0)])
-        if not g(a) >= 0 or a >= tb:
+        if a >= tb or not g(a) >= 0 or not g(tb) < 0:
             continue
         root = brentq(g, a, tb, xtol=1e-15, rtol=1e-15, maxiter=200)
         if root < tb:
