@@ -363,6 +363,8 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     ok = status == "ok"
     if backend == "closed-form" and fast:
         _closed_form_batch(base, values, setters, ok, metrics)
+    elif backend == "exact" and fast and not set(opts) - {"n_samples"}:
+        _exact_batch(base, values, setters, ok, metrics, status)
     else:
         _loop(base, values, method, options, status, metrics, progress)
     wall = time.perf_counter() - start
@@ -390,6 +392,51 @@ def _closed_form_batch(base, values, setters, ok, metrics):
         if metrics[name].ndim == 2 and arr.ndim == 1:
             arr = arr[:, None]
         metrics[name][ok] = arr[ok]
+
+
+def _exact_batch(base, values, setters, ok, metrics, status):
+    """Every member at once through the exact backend's vectorised stepper."""
+    from .solvers import exact
+    from .scene import UnloadingTable
+
+    n = ok.size
+    model = HybridModel(base)
+    p = _batched(model.params, n)
+    for path, vals in values.items():
+        setters[path](p, vals)
+    law, c = model.laws[0], p["contacts"][0]
+    P = {"m1": p["m"][:, 0], "m2": p["m"][:, 1], "v1": p["v0"][:, 0], "v2": p["v0"][:, 1],
+         "gap": p["gap"][:, 0], "g": np.full(n, base.g)}
+    if law.n_load == 1 and law.extends and base.contacts[0].law.loading.f[0] == 0:
+        P["stiffness"] = c["ls"][:, 0]
+    else:
+        P["load_d"], P["load_f"] = c["ld"][:, : law.n_load], c["lf"][:, : law.n_load]
+        if law.extends:
+            P["load_end_slope"] = c["ls"][:, law.n_load - 1]
+    unl = base.contacts[0].law.unloading
+    if law.unload_kind == "restitution":
+        P["e"] = c["e"]
+    elif law.unload_kind == "stiffness":
+        P["unload_stiffness"] = c["su"]
+    else:
+        assert isinstance(unl, UnloadingTable)
+        P["unload_d"] = np.tile(np.asarray(unl.d, float), (n, 1))
+        P["unload_f"] = np.tile(np.asarray(unl.f, float), (n, 1))
+    fail = base.contacts[0].failure
+    if fail is not None:
+        P["failure_force"] = np.full(n, fail.force)
+    run = np.nonzero(ok)[0]
+    if run.size == 0:
+        return
+    out = exact.solve_batch({k: v[run] for k, v in P.items()})
+    good = out["status"] == 0
+    for name in metrics:
+        arr = np.asarray(out[name], float)
+        if metrics[name].ndim == 2 and arr.ndim == 1:
+            arr = arr[:, None]
+        metrics[name][run[good]] = arr[good]
+    for j, code in zip(run[~good], out["status"][~good]):
+        status[j] = f"SimulationError: {exact.BATCH_STATUS[int(code)]}"
 
 
 def _loop(base, values, method, options, status, metrics, progress):
