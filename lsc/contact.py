@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from scipy.optimize import brentq
-
 from .scene import Damping, Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
 
 __all__ = ["HysteresisLaw", "DampingLaw", "make_law", "kelvin_restitution", "kelvin_zeta",
@@ -256,6 +254,8 @@ def kelvin_restitution(zeta):
 
 def kelvin_zeta(e: float) -> float:
     """The damping ratio ζ whose Kelvin restitution is ``e`` (``0 < e <= 1``)."""
+    from scipy.optimize import brentq
+
     if e >= 1:
         return 0.0
     hi = 1.0
@@ -268,6 +268,8 @@ def kelvin_zeta(e: float) -> float:
 def hunt_crossley_a(e: float) -> float:
     """``a = α v0`` of the Hunt–Crossley law for restitution ``e`` (``0 < e <= 1``, any
     exponent): the positive root of ``a (1 + e) = ln[(1 + a) / (1 - a e)]``."""
+    from scipy.optimize import brentq
+
     if e >= 1:
         return 0.0
     f = lambda a: np.log1p(a) - np.log1p(-a * e) - a * (1 + e)  # noqa: E731
@@ -283,6 +285,8 @@ def brach_restitution(k, c1, c2, v0, mu):
     """Restitution of Brach's law ``D (k + c Ḋ)`` (``c1`` compressing, ``c2`` restoring) for an
     impact at closing speed ``v0`` of a pair of reduced mass ``mu``, from its energy integral:
     ``G_c2(-e v0) = G_c1(v0)`` with ``G_c(v) = (μ k / c²)(c v/k - ln(1 + c v/k))``."""
+    from scipy.optimize import brentq
+
     def G(c, v):
         u = c * v / k
         return mu * v * v / k * np.where(np.abs(u) < 1e-6, 0.5 - u / 3 + u * u / 4,

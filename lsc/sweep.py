@@ -60,13 +60,16 @@ class SweepResult:
         """Unit of every metric (pint spelling)."""
         return {name: self.scene.unit(kind) for name, (kind, _) in METRICS.items()}
 
-    def columns(self) -> dict[str, np.ndarray]:
-        """Flat named columns (params, then metrics per vehicle/contact, then status) for CSV."""
+    def columns(self, metrics=None) -> dict[str, np.ndarray]:
+        """Flat named columns (params, then metrics per vehicle/contact, then status) for CSV;
+        ``metrics`` selects some metrics (default: all)."""
         cols = {}
         for path, vals in self.params.items():
             cols[path] = vals
         names = [v.name for v in self.scene.vehicles]
         for name, (kind, per) in METRICS.items():
+            if metrics is not None and name not in metrics:
+                continue
             arr = self.metrics[name]
             unit = self.scene.unit(kind)
             suffix = f" ({unit})" if unit else ""
@@ -81,18 +84,26 @@ class SweepResult:
         cols["status"] = self.status
         return cols
 
-    def to_csv(self, path) -> None:
-        """Write :meth:`columns` as a CSV file with a header row."""
+    def to_csv(self, path, metrics=None) -> None:
+        """Write :meth:`columns` as a CSV file with a header row (shortest round-trip decimals)."""
         import csv
 
-        cols = self.columns()
+        cols = self.columns(metrics)
         keys = list(cols)
-        n = len(self.status)
+        status = cols.pop("status")
+        table = np.column_stack([np.asarray(c, float) for c in cols.values()]).tolist()
+        fmt = ",".join(["%r"] * len(cols)) + ",%s\n"
+        quote = csv.QUOTE_MINIMAL
         with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(keys)
-            for j in range(n):
-                w.writerow([cols[k][j] if k == "status" else repr(float(cols[k][j])) for k in keys])
+            csv.writer(fh, quoting=quote).writerow(keys)
+            fh.writelines(fmt % (*row, _csv_text(st)) for row, st in zip(table, status))
+
+
+def _csv_text(text: str) -> str:
+    """A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a newline."""
+    if any(ch in text for ch in ',"\n\r'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
 
 
 # --------------------------------------------------------------------------- parameters

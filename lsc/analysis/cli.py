@@ -131,7 +131,8 @@ def add_mc(sub) -> None:
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
     p.add_argument("--percentiles", type=_percentiles, default=(5.0, 50.0, 95.0),
                    help="comma-separated percentiles (default 5,50,95)")
-    p.add_argument("--out", metavar="DIR", help="write mc.csv (samples and metrics) and histograms here")
+    p.add_argument("--out", metavar="DIR", help="write mc.csv (the samples and the reported metrics of every member) and "
+                        "histograms here")
     p.add_argument("--no-plots", action="store_true", help="with --out: no histogram PNGs")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_mc)
@@ -150,15 +151,16 @@ def cmd_mc(args) -> int:
         out = Path(args.out)
         try:
             out.mkdir(parents=True, exist_ok=True)
-            mc.sweep.to_csv(out / "mc.csv")
+            reported = ("delta_v", "peak_acceleration_g", "duration", "peak_force")
+            mc.sweep.to_csv(out / "mc.csv", metrics=reported)
             written = ["mc.csv"]
             if not args.no_plots:
-                for metric in ("delta_v", "peak_acceleration_g", "duration", "peak_force"):
-                    fig = mc.histogram(metric)
+                from matplotlib.figure import Figure  # no pyplot: nothing to show or close
+                for metric in reported:
+                    fig = Figure(figsize=(6.0, 4.0), layout="constrained")
+                    mc.histogram(metric, ax=fig.add_subplot())
                     fig.savefig(out / f"mc_{metric}.png", dpi=120)
                     written.append(f"mc_{metric}.png")
-                    import matplotlib.pyplot as plt
-                    plt.close(fig)
         except OSError as e:
             print(f"lsc: error: cannot write to {out}: {e.strerror or e}", file=sys.stderr)
             return 1
