@@ -71,6 +71,11 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         from ..errors import SceneError
         raise SceneError("solver.integrator", f"unknown SciPy integrator {integrator!r}; "
                          f"accepted: {', '.join(INTEGRATORS)}")
+    if rtol < 100 * np.finfo(float).eps:
+        from ..errors import SceneError
+        raise SceneError("solver.rtol", f"SciPy's integrators accept rtol >= 100 machine epsilons "
+                         f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
+                         "'closed-form' where they apply")
     p = model.params
     at = _atol(model, rtol, atol)
 
