@@ -226,17 +226,57 @@ class HybridModel:
         return bool(np.all(Dd <= 1e-12 * self.v_scale))
 
     # ------------------------------------------------------------------ scales
-    def time_scale(self) -> float:
-        """A rough contact time [s] from the stiffest slope and the lightest pair."""
+    def time_scale(self, slowest: bool = False) -> float:
+        """A rough contact time [s] from the stiffest slope and the lightest pair (``slowest``:
+        from the softest slope and the heaviest pair)."""
         m = self.params["m"]
-        mu = np.min(m[:-1] * m[1:] / (m[:-1] + m[1:]))
+        mus = m[:-1] * m[1:] / (m[:-1] + m[1:])
+        mu = np.max(mus) if slowest else np.min(mus)
         slopes = []
         for law in self.laws:
             for key in ("ls", "su", "k"):
                 val = np.asarray(law.params.get(key, []), float).reshape(-1)
                 slopes.extend(np.abs(val[np.isfinite(val)]))
-        k = max([s for s in slopes if s > 0] or [1.0])
+        slopes = [s for s in slopes if s > 0] or [1.0]
+        k = min(slopes) if slowest else max(slopes)
         return float(np.sqrt(mu / k))
+
+    def natural_frequency(self, disc) -> float:
+        """A bound on the highest angular frequency [1/s] of the motion in the frozen discrete
+        state ``disc`` (0 when no contact is loaded): each loaded contact's slope, ``|s|`` of the
+        IF-D law's active piece ``F = fa + s (D - da)`` or the spring ``k`` of a Kelvin or Brach
+        law, acts on both its vehicles; ``ω² <= max_i (sum of 2|slope| at vehicle i) / m_i``
+        (Gershgorin). Hunt-Crossley springs (``k D^n``) have no constant slope and count as 0."""
+        m = np.asarray(self.params["m"], float)
+        load = np.zeros(self.N)
+        for k, (law, st) in enumerate(zip(self.laws, disc[: self.K])):
+            if not int(st["mode"]):
+                continue
+            if "s" in st:
+                slope = abs(float(st["s"]))
+            elif getattr(law, "name", "") in ("kelvin", "brach"):
+                slope = abs(float(st["k"]))
+            else:
+                continue
+            load[k] += 2.0 * slope
+            load[k + 1] += 2.0 * slope
+        return float(np.sqrt(np.max(load / m)))
+
+    def horizon(self) -> float:
+        """A time [s] by which a crash of this scene is over unless a contact never separates:
+        a million contact times on the softest slope, plus four times what closing every gap and
+        crossing every table takes at the slowest initial closing speed (a gap closed at 1e-4
+        ft/s, a table traversed slowly, take far longer than any contact time)."""
+        w = -np.diff(np.asarray(self.params["v0"], float))
+        w = w[w > 1e-12 * self.v_scale]
+        w_min = float(np.min(w)) if w.size else self.v_scale
+        extent = float(np.sum(self.params["gap"]))
+        for law in self.laws:
+            for key in ("ld", "ud"):
+                val = np.abs(np.asarray(law.params.get(key, []), float).reshape(-1))
+                val = val[val < 1e299]
+                extent += float(np.max(val)) if val.size else 0.0
+        return 1e6 * self.time_scale(slowest=True) + 4.0 * extent / w_min + 1.0
 
     @staticmethod
     def to_python(disc) -> list[dict]:

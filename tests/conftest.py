@@ -1,8 +1,29 @@
-"""Shared scene builders for the tests (plain dicts, in the scene format of DESIGN.md §4)."""
+"""Shared scene builders for the tests (plain dicts, in the scene format of DESIGN.md §4), the
+``--hard`` option and the project's hypothesis profile."""
 
 import copy
+import os
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# Hypothesis: a case's run time depends on its numbers (a stiff contact takes more steps), so no
+# per-example deadline and no too-slow health check; tests that need others say so themselves.
+settings.register_profile("lsc", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("lsc")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--hard", action="store_true", default=False,
+                     help="hard-case mode: run the hard-case suite (tests/hard) and the loader "
+                          "fuzzing with many more generated cases (same as LSC_HARD=1)")
+
+
+def pytest_configure(config):
+    # set before the test modules are imported: their hypothesis settings read it
+    if config.getoption("--hard"):
+        os.environ["LSC_HARD"] = "1"
+
 
 PAPER = {
     "name": "paper",

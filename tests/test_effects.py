@@ -99,22 +99,27 @@ def braked(v1=2.0, mu1=None, mu2=None, mus2=None, k=2.0e5, e=0.5, m1=M1, m2=M2, 
             "contacts": [{"loading": {"stiffness": k}, "unloading": {"restitution": e}}]}
 
 
-def test_braked_target_below_breakaway_never_moves():
+@pytest.mark.parametrize("method", ["scipy", "exact"])
+def test_braked_target_below_breakaway_never_moves(method):
     # the target stays put, so the bullet meets a wall: F_max = v0 √(k m1) < μs m2 g
     v0, k, m1 = 0.3, 2.0e4, 800.0
     fmax = v0 * np.sqrt(k * m1)
     mus = 1.2
     assert fmax < mus * 3000 * 9.81
-    r = lsc.solve(braked(v0, mu2=0.9, mus2=mus, k=k, m1=m1, m2=3000.0, e=0.5), method="scipy",
-                  rtol=1e-12)
+    opts = {"rtol": 1e-12} if method == "scipy" else {}
+    r = lsc.solve(braked(v0, mu2=0.9, mus2=mus, k=k, m1=m1, m2=3000.0, e=0.5), method=method,
+                  **opts)
     assert np.all(r.x[:, 1] == 0.0) and np.all(r.v[:, 1] == 0.0)
     assert r.peak_force[0] == pytest.approx(fmax, rel=1e-9)
     assert r.v_final[0] == pytest.approx(-0.5 * v0, rel=1e-9)  # rebounds off a wall with e
 
 
-def test_bullet_braking_throughout_against_hand_closed_form():
+@pytest.mark.parametrize("method, tol", [("scipy", 1e-9), ("exact", 1e-12)])
+def test_bullet_braking_throughout_against_hand_closed_form(method, tol):
     v0, k, e, mu1, g = 3.0, 2.0e5, 0.4, 0.7, 9.81
-    r = lsc.solve(braked(v0, mu1=mu1, k=k, e=e, g=g), method="scipy", rtol=1e-12)
+    opts = {"rtol": 1e-12} if method == "scipy" else {}
+    r = lsc.solve(braked(v0, mu1=mu1, k=k, e=e, g=g), method=method, **opts)
+    assert r.method.startswith(method)
     # relative motion: D'' = -F/μ - μ1 g, loading F = k D, then unloading k/e² to D_perm
     w = np.sqrt(k / MU)
     d = mu1 * g / w**2
@@ -130,16 +135,16 @@ def test_bullet_braking_throughout_against_hand_closed_form():
     impulse = k * (-d * t_m + A / w * (1 - np.cos(w * t_m)) + B / w * np.sin(w * t_m)) \
         + ku * (-du * tau + amp * np.sin(wu * tau) / wu)
     T = t_m + tau
-    assert r.max_deformation[0] == pytest.approx(D_max, rel=1e-9)
-    assert r.duration == pytest.approx(T, rel=1e-9)
-    assert r.v_final[1] == pytest.approx(impulse / M2, rel=1e-9)
-    assert r.v_final[0] == pytest.approx(v0 - impulse / M1 - mu1 * g * T, rel=1e-9)
+    assert r.max_deformation[0] == pytest.approx(D_max, rel=tol)
+    assert r.duration == pytest.approx(T, rel=tol)
+    assert r.v_final[1] == pytest.approx(impulse / M2, rel=tol)
+    assert r.v_final[0] == pytest.approx(v0 - impulse / M1 - mu1 * g * T, rel=tol)
     # momentum changes by exactly the friction impulse
     dp = M1 * r.delta_v[0] + M2 * r.delta_v[1]
-    assert dp == pytest.approx(-mu1 * M1 * g * T, rel=1e-9)
+    assert dp == pytest.approx(-mu1 * M1 * g * T, rel=tol)
     # for a linear loading line a constant friction force leaves the velocity restitution at e
     # (its work in compression and in restitution scales with D_max - D_perm = e² D_max) ...
-    assert r.restitution[0] == pytest.approx(e, rel=1e-9)
+    assert r.restitution[0] == pytest.approx(e, rel=tol)
 
 
 def test_braking_with_a_nonlinear_curve_separates_the_two_restitutions():
@@ -149,10 +154,15 @@ def test_braking_with_a_nonlinear_curve_separates_the_two_restitutions():
     r = lsc.solve(scene, method="scipy", rtol=1e-12)
     assert r.restitution_energy[0] == pytest.approx(0.4, rel=1e-12)
     assert abs(r.restitution[0] - 0.4) > 1e-3
+    ex = lsc.solve(scene, method="exact")
+    assert ex.restitution_energy[0] == pytest.approx(0.4, rel=1e-14)
+    assert ex.restitution[0] == pytest.approx(r.restitution[0], rel=1e-9)
 
 
-def test_braked_vehicles_stop_and_the_series_shows_it():
-    r = lsc.solve(braked(3.0, mu1=0.7, mu2=0.7), method="scipy", rtol=1e-10, t_end=2.0)
+@pytest.mark.parametrize("method", ["scipy", "exact"])
+def test_braked_vehicles_stop_and_the_series_shows_it(method):
+    opts = {"rtol": 1e-10} if method == "scipy" else {}
+    r = lsc.solve(braked(3.0, mu1=0.7, mu2=0.7), method=method, t_end=2.0, **opts)
     kinds = [ev.kind for ev in r.events]
     assert kinds.count("stop") == 2
     assert np.all(np.abs(r.v[-1]) < 1e-12)

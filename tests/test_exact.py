@@ -1,6 +1,5 @@
 """The exact piecewise backend against the closed form, SciPy, itself batched, and conservation."""
 
-import functools
 import itertools
 from unittest import mock
 
@@ -147,14 +146,18 @@ def _table_ends_first(sc) -> bool:
     return not curve.extends and 0.5 * m1 * m2 / (m1 + m2) * (v1 - v2) ** 2 > curve.cum_energy[-1]
 
 
-def _scipy(model):
+def _scipy(model, rtol=1e-13, **options):
     """The tightest SciPy solve: DOP853 at rtol 1e-13 (at 1e-12 SciPy itself errs by up to
     ~1.2e-10 on slow scenes; its error falls with rtol towards the exact values), with steps of
     at most a tenth of the contact time scale (on a plateau the motion is a parabola, DOP853's
     error estimate vanishes and its steps grow until they straddle the next breakpoint)."""
     h = model.time_scale() / 10
-    with mock.patch.object(scipy_ode, "solve_ivp", functools.partial(solve_ivp, max_step=h)):
-        return scipy_ode.solve(model, rtol=1e-13)
+
+    def capped(*args, max_step=np.inf, **kw):  # (the backend sets its own cap per segment)
+        return solve_ivp(*args, max_step=min(max_step, h), **kw)
+
+    with mock.patch.object(scipy_ode, "solve_ivp", capped):
+        return scipy_ode.solve(model, rtol=rtol, **options)
 
 
 def _scipy_stepped_over_a_breakpoint(sc, sp) -> bool:
@@ -513,5 +516,251 @@ def test_auto_prefers_closed_form_then_exact():
                    vehicles=(Vehicle("a", 1.0, 1.0, lsc.scene.Brake(0.5, 0.6)),
                              Vehicle("b", 1.0, 0.0)),
                    contacts=tab.contacts)
-    assert "braking" in exact.why_not(braked)
-    assert pick(braked, "auto") == "scipy"
+    assert exact.why_not(braked) is None
+    assert pick(braked, "auto") == "exact"   # (closed_form has no braking)
+    assert pick(lsc.Scene.load(_braked_dict(brake1=(0.7, 0.7))), "auto") == "exact"
+    # the batch has no friction forces: it says so rather than drop the brakes
+    with pytest.raises(ValueError, match="braked scenes are not batched"):
+        exact.batch_params([tab, braked])
+    with pytest.raises(ValueError, match="not batched"):
+        exact.solve_batch({**exact.batch_params([tab]), "mu1": 0.5})
+
+
+# --------------------------------------------------------------------------- braking
+def _braked_dict(v1=3.0, v2=0.0, brake1=None, brake2=None, m1=1400.0, m2=1000.0,
+                 loading=None, unloading=None, gap=0.0, g=9.81):
+    """A two-vehicle SI scene with brakes ``(mu, mu_static)`` on either or both vehicles."""
+    veh = [{"mass": m1, "speed": v1}, {"mass": m2, "speed": v2}]
+    for v, b in zip(veh, (brake1, brake2)):
+        if b is not None:
+            v["brake"] = {"mu": b[0], "mu_static": b[1]}
+    return {"units": "SI", "g": g, "vehicles": veh,
+            "contacts": [{"loading": loading or {"stiffness": 2.0e5},
+                          "unloading": unloading or {"restitution": 0.4}, "gap": gap}]}
+
+
+_TABLE = {"table": [[0, 0], [0.01, 500], [0.05, 8000], [0.1, 8000], [0.15, 6000], [0.3, 9e4]]}
+
+#: Braked scenes (scene dict, solver options, the event kinds the exact solve must show).
+BRAKED = {
+    "bullet braked throughout": (_braked_dict(brake1=(0.7, 0.7)), {}, ["stop"]),
+    "target held below break-away": (
+        _braked_dict(0.3, brake2=(0.9, 1.2), m1=800.0, m2=3000.0,
+                     loading={"stiffness": 2.0e4}, unloading={"restitution": 0.5}), {}, []),
+    "target slides, stops, is struck again": (
+        _braked_dict(brake2=(0.7, 0.8)), {},
+        ["break_away", "stop", "contact", "break_away", "stop"]),
+    "both braked": (_braked_dict(brake1=(0.7, 0.7), brake2=(0.7, 0.7)), {"t_end": 2.0},
+                    ["break_away", "stop", "stop"]),
+    "bullet stops and reverses in contact": (
+        _braked_dict(2.0, brake1=(0.9, 1.0), m1=1000.0, m2=2000.0,
+                     unloading={"restitution": 0.8}), {}, ["reversal", "stop"]),
+    "table, both braked, break-away at mu_static = mu": (
+        _braked_dict(brake1=(0.7, 0.7), brake2=(0.7, 0.7), loading=_TABLE), {},
+        ["break_away", "breakpoint", "stop", "stop"]),
+    "both slide throughout, table": (
+        _braked_dict(6.0, 3.0, brake1=(0.5, 0.6), brake2=(0.6, 0.7), loading={
+            "table": [[0, 0], [0.05, 1e4], [0.1, 1.5e4], [0.5, 2.5e5]]}), {"t_end": 1.5},
+        ["breakpoint", "separation", "stop", "stop"]),
+    "table, moving target braked, gap": (
+        _braked_dict(5.0, 1.0, brake2=(0.5, 0.6), loading=_TABLE,
+                     unloading={"stiffness": 3e6}, gap=0.05), {}, ["breakpoint", "stop"]),
+}
+
+
+@pytest.mark.parametrize("name", list(BRAKED))
+def test_braked_scenes_match_scipy(name):
+    """Exact vs the tight SciPy solve (rtol 1e-12, short steps) on braked scenes: the same
+    events, at the same times, and the same metrics, to 1e-9."""
+    d, opts, kinds = BRAKED[name]
+    sc = lsc.Scene.load(d)
+    model = HybridModel(sc)
+    ex, sp = exact.solve(model, **opts), _scipy(model, rtol=1e-12, **opts)
+    got = [e.kind for e in ex.events]
+    assert all(k in got for k in kinds), got
+    assert [(e.kind, e.index) for e in ex.events] == [(e.kind, e.index) for e in sp.events]
+    for a, b in zip(ex.events, sp.events):
+        assert abs(a.time - b.time) <= 1e-9 * sp.duration, (a, b)
+    assert_metrics_close(ex, sp, sc.masses, 1e-9)
+    assert np.max(np.abs(ex.v[-1] - sp.v[-1])) <= 1e-9 * sc.speeds.max()
+    assert pick(sc, "auto") == "exact" and lsc.solve(d, **opts).method == "exact"
+
+
+def test_braked_target_below_breakaway_never_moves_exactly():
+    d, _, _ = BRAKED["target held below break-away"]
+    r = lsc.solve(d, method="exact")
+    # held: the target's position and velocity are zero to the last bit, its acceleration too
+    assert np.all(r.x[:, 1] == 0.0) and np.all(r.v[:, 1] == 0.0) and np.all(r.a[:, 1] == 0.0)
+    assert r.peak_acceleration[1] == 0.0
+    # the bullet meets a wall: F_max = v0 √(k m1), rebound at -e v0
+    assert r.peak_force[0] == pytest.approx(0.3 * np.sqrt(2.0e4 * 800.0), rel=1e-14)
+    assert r.v_final[0] == pytest.approx(-0.5 * 0.3, rel=1e-14)
+    assert r.duration == pytest.approx(0.5 * np.pi * np.sqrt(800.0 / 2.0e4) * 1.5, rel=1e-14)
+
+
+def _friction_impulse(sc, events, t):
+    """The tyre friction impulse on the system up to time ``t`` [N s], from the brake events:
+    each braked vehicle slides (force -μ m g dir) from the start if moving, or from its
+    break-away (the target forward, the bullet backward: the contact force pushes them) until
+    it stops; a reversal turns the direction."""
+    total = 0.0
+    for i, veh in enumerate(sc.vehicles):
+        if veh.brake is None:
+            continue
+        f = veh.brake.mu * veh.mass * sc.g
+        d = float(np.sign(veh.speed))
+        t0 = 0.0
+        for ev in events:
+            if ev.time > t:
+                break
+            if ev.index != i or ev.kind not in ("stop", "break_away", "reversal"):
+                continue
+            total -= f * d * (ev.time - t0)
+            t0 = ev.time
+            d = {"stop": 0.0, "break_away": 1.0 if i == 1 else -1.0, "reversal": -d}[ev.kind]
+        total -= f * d * (t - t0)
+    return total
+
+
+@pytest.mark.parametrize("name", ["bullet braked throughout", "both slide throughout, table"])
+def test_braked_momentum_change_is_the_friction_impulse(name):
+    """Where no vehicle sticks while the bumpers push (static friction would take its share),
+    the momentum changes by exactly the sliding friction impulse: at every sample of the series,
+    at the last separation (v_final) and at the end, every braked vehicle at rest."""
+    d, opts, _ = BRAKED[name]
+    sc = lsc.Scene.load(d)
+    r = exact.solve(HybridModel(sc), **opts)
+    m = sc.masses
+    scale = m @ np.abs(sc.speeds)
+    t_sep = [e.time for e in r.events if "separation" in e.kind][-1]
+    assert abs(m @ r.delta_v - _friction_impulse(sc, r.events, t_sep)) <= 1e-14 * scale
+    assert all(r.v[-1, i] == 0.0 for i, v in enumerate(sc.vehicles) if v.brake is not None)
+    assert abs(m @ (r.v[-1] - sc.speeds) - _friction_impulse(sc, r.events, r.t[-1])) \
+        <= 1e-14 * scale
+    for k in range(0, r.t.size, 7):
+        assert abs(m @ (r.v[k] - sc.speeds) - _friction_impulse(sc, r.events, r.t[k])) \
+            <= 1e-13 * scale, r.t[k]
+
+
+def test_braked_stop_inside_a_harmonic_segment_to_40_digits():
+    """The bullet (braked) stops while the unloading spring pushes it back: its velocity is
+    a sinusoid on a uniformly decelerating centre of mass, and the stop a root of that. An
+    independent 40-digit solve (mpmath) of the same closed forms agrees to the last bits."""
+    mp = pytest.importorskip("mpmath")
+    mp.mp.dps = 40
+    m1, m2, v0, k, e, mu1, g = 1000.0, 2000.0, 2.0, 2.0e5, 0.8, 0.9, 9.81
+    d, _, _ = BRAKED["bullet stops and reverses in contact"]
+    r = exact.solve(HybridModel(lsc.Scene.load(d)))
+    M = mp.mpf(m1) + m2
+    mu = mp.mpf(m1) * m2 / M
+    w = mp.sqrt(k / mu)
+    c = -mp.mpf(mu1) * g             # relative acceleration of the friction alone
+    acm = c * m1 / M                 # the centre of mass decelerates
+    # loading: D = -δ + δ cos ωt + (v0/ω) sin ωt, δ = -c/ω², to the common velocity
+    delta = -c / w**2
+    tm = mp.atan2(mp.mpf(v0) / w, delta) / w
+    dmax = -delta + delta * mp.cos(w * tm) + v0 / w * mp.sin(w * tm)
+    # unloading line to the energy-restitution set, harmonic about its shifted equilibrium
+    dperm = dmax * (1 - mp.mpf(e) ** 2)
+    wu = mp.sqrt(k * dmax / (dmax - dperm) / mu)
+    deq = dperm + c / wu**2
+    vcm = mp.mpf(m1) * v0 / M + acm * tm
+
+    def v1(t):  # the bullet: the centre of mass plus its share m2/M of the closing rate
+        return vcm + acm * t + m2 / M * (-(dmax - deq) * wu * mp.sin(wu * t))
+
+    t_ex = [ev.time for ev in r.events if ev.kind == "reversal"][0]
+    ts = tm + mp.findroot(v1, (t_ex - tm) * (1 - 1e-9), tol=mp.mpf(10) ** -35)
+    assert [ev.kind for ev in r.events][:3] == ["contact", "max_deformation", "reversal"]
+    assert abs(t_ex - float(ts)) <= 2e-16 * float(ts)
+    assert r.max_deformation[0] == pytest.approx(float(dmax), rel=1e-15)
+    assert r.events[1].time == pytest.approx(float(tm), rel=1e-15)
+
+
+def test_braked_bullet_into_a_held_target_against_hand_closed_form():
+    """A braked bullet into a target its brakes hold: the bullet meets a wall with friction,
+    and its stop coincides with the common velocity (the closing rate is its own speed). The
+    exact backend takes the common velocity first, then the bullet's stop: the bumper pushes
+    harder than static friction holds, so it slides back (a reversal), separates and stops."""
+    m1, v0, mu1, mus1, k, e, g = 500.0, 1.3, 0.7, 0.75, 2.0e5, 0.3, 9.81
+    d = _braked_dict(v0, brake1=(mu1, mus1), brake2=(1.0, 1.0), m1=m1, m2=2000.0,
+                     unloading={"restitution": e}, g=g)
+    r = exact.solve(HybridModel(lsc.Scene.load(d)))
+    w = np.sqrt(k / m1)
+    dl = mu1 * g / w**2                      # D'' = -ω² D - μ1 g while the bullet slides on
+    tm = np.arctan2(v0 / w, dl) / w
+    dmax = -dl + np.hypot(v0 / w, dl)
+    assert k * dmax < 1.0 * 2000.0 * g and k * dmax > mus1 * m1 * g   # held; the bullet reverses
+    dperm = dmax * (1 - e**2)
+    wu = np.sqrt(k / e**2 / m1)
+    du = mu1 * g / wu**2                     # sliding back: friction pushes it forward
+    amp = dmax - dperm - du
+    ts = np.arccos(-du / amp) / wu           # D back at the permanent set
+    w_sep = -amp * wu * np.sin(wu * ts)
+    times = [0.0, tm, tm, tm + ts, tm + ts - w_sep / (mu1 * g)]
+    assert [e.kind for e in r.events] == ["contact", "max_deformation", "reversal", "separation",
+                                          "stop"]
+    assert np.allclose([e.time for e in r.events], times, rtol=1e-14, atol=0)
+    assert r.max_deformation[0] == pytest.approx(dmax, rel=1e-14)
+    assert r.v_final == pytest.approx([w_sep, 0.0], rel=1e-13, abs=0)
+    assert r.peak_force[0] == pytest.approx(k * dmax, rel=1e-14)
+    assert np.all(r.x[:, 1] == 0.0) and np.all(r.v[:, 1] == 0.0)
+    assert r.v[-1, 0] == 0.0
+
+
+def test_braked_stop_and_breakaway_leave_the_vehicle_exactly_at_rest():
+    """A stop sets the velocity to zero exactly, and a stuck vehicle stays there: it does not
+    creep with a rounding-level velocity (SciPy's does, by ~1e-17 m/s)."""
+    d, opts, _ = BRAKED["target slides, stops, is struck again"]
+    r = exact.solve(HybridModel(lsc.Scene.load(d)), **opts)
+    stops = [e.time for e in r.events if e.kind == "stop" and e.index == 1]
+    again = [e.time for e in r.events if e.kind == "break_away"][1]
+    held = (r.t > stops[0]) & (r.t <= again)
+    assert held.sum() > 2
+    assert np.all(r.v[held, 1] == 0.0) and np.ptp(r.x[held, 1]) == 0.0
+    assert r.v[-1, 1] == 0.0
+
+
+@st.composite
+def braked_scenes(draw):
+    """Two vehicles on a random table, each braked or not (mu_static = mu or above)."""
+    def brake():
+        mu = draw(st.floats(0.1, 1.0))
+        return draw(st.sampled_from([None, (mu, mu), (mu, mu * draw(st.floats(1.0, 1.5)))]))
+    return _braked_dict(draw(st.floats(0.5, 8.0)), draw(st.sampled_from([0.0, 0.0, 0.4, -0.5])),
+                        brake(), brake(), draw(st.floats(500.0, 3000.0)),
+                        draw(st.floats(500.0, 3000.0)),
+                        loading=draw(st.sampled_from([_TABLE, {"stiffness": 2e5},
+                                                      {"table": [[0, 0], [0.05, 1e4],
+                                                                 [0.1, 1.5e4], [0.5, 2.5e5]]}])),
+                        unloading=draw(st.sampled_from([{"restitution": 0.3},
+                                                        {"restitution": 0.7},
+                                                        {"stiffness": 5e6}])),
+                        gap=draw(st.sampled_from([0.0, 0.03])))
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(braked_scenes())
+def test_exact_matches_scipy_on_random_braked_scenes(d):
+    sc = lsc.Scene.load(d)
+    model = HybridModel(sc)
+    try:
+        ex = exact.solve(model)
+    except lsc.SimulationError:
+        # (vehicles that both stick while the bumpers are still loaded: the crash never ends in
+        # the model's terms, for every backend; see HybridModel.is_over)
+        assume(False)
+    # (a braked bullet that stops at the common velocity against a held target: the two events
+    # coincide, and SciPy, which sees the stop a rounding error past zero, misses it)
+    tm = [e.time for e in ex.events if e.kind == "max_deformation"]
+    assume(not any(e.index == 0 and e.kind in ("stop", "reversal") and
+                   any(abs(e.time - t) <= 1e-12 * t for t in tm) for e in ex.events))
+    # (a slow bullet may catch the stopped target minutes later: too many short SciPy steps)
+    assume(ex.events[-1].time < 5.0)
+    sp = _scipy(model, rtol=1e-12)
+    assert [(e.kind, e.index) for e in ex.events] == [(e.kind, e.index) for e in sp.events]
+    for a, b in zip(ex.events, sp.events):
+        assert abs(a.time - b.time) <= 1e-9 * sp.events[-1].time
+    assert np.max(np.abs(ex.v_final - sp.v_final)) <= 1e-9 * np.max(np.abs(sc.speeds))
+    if any(e.kind == "contact" for e in ex.events):   # (a braked bullet may stop short)
+        assert_metrics_close(ex, sp, sc.masses, 1e-9)

@@ -19,7 +19,8 @@ METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
 _OPTIONS = {
     "closed-form": {"t_end", "n_samples"},
     "exact": {"t_end", "n_samples", "max_events"},
-    "scipy": {"rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step"},
+    "scipy": {"rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step",
+              "max_steps"},
     "reference": {"dt", "t_end", "n_samples", "max_steps"},
     "diffrax": {"rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"},
 }
@@ -60,7 +61,11 @@ def run(model, method: str, options: dict):
     elif method == "scipy":
         from .scipy_ode import solve
     elif method == "diffrax":
-        from .diffrax_ode import solve
+        try:
+            from .diffrax_ode import solve
+        except ModuleNotFoundError as exc:  # the [jax] extra is not installed
+            raise SceneError("solver.method", f"method 'diffrax' needs JAX and diffrax ({exc}); "
+                             "install them with: pip install 'lsc[jax]'") from exc
     else:
         from .reference import solve
     return solve(model, **options)

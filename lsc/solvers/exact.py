@@ -4,7 +4,10 @@ Inside a segment (frozen discrete state) the contact force is affine in the defo
 ``F = fa + s (D - da)`` (:class:`~lsc.contact.HysteresisLaw`), so with ``μ = m1 m2/(m1+m2)``
 the relative motion obeys ``μ D'' = -(fa + s (D - da)) + μ c`` while the centre of mass moves
 with constant acceleration ``A`` (``c = b1/m1 - b2/m2``, ``A = (b1+b2)/M`` for constant extra
-forces ``b1, b2`` per vehicle [force]: the hook for braking, zero for now). With ``κ = s/μ``
+forces ``b1, b2`` per vehicle [force]: sliding friction ``-μ_i m_i g dir_i`` of a braked vehicle,
+zero otherwise). A vehicle its brakes hold (stuck) does not move at all: the relative motion is
+then the other vehicle's alone against a fixed one (its own mass for ``μ``; both held: nothing
+moves). With ``κ = s/μ``
 [1/s²], ``D0, W0`` the deformation [length] and closing rate [velocity] and ``A0 = D''(0)``
 [acceleration] at the segment start, for every sign of ``κ``
 
@@ -23,19 +26,32 @@ quadratic has at most one downward crossing; its root, from the cancellation-fre
 ratio ``num/den`` (``den = 0`` is the root at infinity, ``ωτ = π``), maps back to time by one
 ``atan2`` (harmonic), ``atanh`` (hyperbolic, as ``log1p``) or directly (parabolic), only for
 the earliest event: the events of one segment are ordered by a monotone key (a pseudo-angle)
-first. No iteration and no tolerance: results agree with 40-digit arithmetic to about 1e-15
-relative. A segment starting on the surface it just crossed does not fire it again unless it
-stays on it or moves back into it (the restart trap, see :func:`_level_now`).
+first. No iteration: results agree with 40-digit arithmetic to about 1e-15 relative. A
+segment starting on the surface it just crossed does not fire it again unless it stays on it or
+moves back into it (the restart trap, see :func:`_level_now`); a discriminant within rounding of
+zero is a touch (:data:`_TOUCH`).
+
+Braking adds two events per braked vehicle. Break-away (the net contact force ``∓F`` through the
+static limit ``μ_s m g``) is a level of ``F``, hence of ``D``: a quadratic like the others. A
+sliding vehicle's stop (its velocity through zero) is not, while it is in contact with a moving
+vehicle (the reference point decelerates uniformly beside the oscillation): its acceleration has
+closed-form zeros, between which the velocity is monotone, and a safeguarded Newton iteration
+finds the zero in the first bracket to the last bit (:func:`_stop_time`). Against a held vehicle
+the velocity is the closing rate itself, and its zero is the quadratic's again. At a stop the
+velocity is set to zero exactly; a held vehicle stays exactly where it is.
 
 The transitions between segments are the law's own ``on_event``, never re-derived here: on
 Python scalars for :func:`solve` (through :func:`~lsc.solvers.segments.run_segments`) and on
-NumPy arrays of many scenes at once in :func:`solve_batch`. The kernels are written once against
-a small array namespace (NumPy, or :data:`_PY` on Python floats) and shared by both paths.
+NumPy arrays of many scenes at once in :func:`solve_batch` (which has no braking: braked
+scenes are solved one by one). The brakes' transitions are the model's
+(:class:`~lsc.effects.BrakeEffect`). The kernels are written once against a small array
+namespace (NumPy, or :data:`_PY` on Python floats) and shared by both paths.
 """
 
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
 import time
 from dataclasses import dataclass
@@ -60,6 +76,12 @@ BATCH_STATUS = {
 EVENT_LIMIT, NO_EVENT = 10, 11
 
 _ARMED = 1e299        # bounds beyond this are disarmed (as in HybridModel.active_events)
+# A discriminant within this fraction of its terms is a double root: a touch, not a crossing
+# (the excursion past the surface, disc/(4|a|), is below 1e-12 of the motion's length scale).
+# Rounding makes exact tangencies look like shallow crossings: with a friction force and a
+# straight unloading line the motion is conservative, and a contact that closes again returns to
+# (D_max, W = 0) exactly; after a few segments the computed discriminant is ~1e-14 of its terms.
+_TOUCH = 1e-12
 
 
 # ============================================================================ namespaces
@@ -128,9 +150,28 @@ class _Seg:
     F0: object
 
 
-def _setup(x1, x2, v1, v2, m1, m2, gap, fa, s, da, b1=0.0, b2=0.0) -> _Seg:
+def _setup(x1, x2, v1, v2, m1, m2, gap, fa, s, da, b1=0.0, b2=0.0, hold1=False,
+           hold2=False) -> _Seg:
     """A segment from the state at its start, the active affine piece ``F = fa + s (D - da)``
-    and constant extra forces ``b1, b2`` on the vehicles [force] (braking; zero for now)."""
+    and constant extra forces ``b1, b2`` on the vehicles [force] (sliding friction).
+
+    ``hold1``, ``hold2`` (Python scalars only): the vehicle is held by its brakes (stuck,
+    ``a = 0``). Then the relative motion is the other vehicle's alone against a fixed one (mass
+    ``m1`` or ``m2`` in place of ``μ``, all of ``ΔD`` to the moving vehicle, the reference point
+    moving with the held one); with both held nothing accelerates (``κ = A0 = 0``)."""
+    if hold1 or hold2:
+        D0 = x1 - x2 - gap
+        F0 = fa + s * (D0 - da)
+        W0 = v1 - v2
+        if hold1 and hold2:
+            return _Seg(x1=x1, x2=x2, v1=v1, v2=v2, r1=0.5, r2=0.5, V0=0.5 * (v1 + v2), Acm=0.0,
+                        D0=D0, W0=W0, A0=0.0, kappa=0.0, F0=F0)
+        if hold2:   # vehicle 1 moves: m1 D'' = b1 - F
+            return _Seg(x1=x1, x2=x2, v1=v1, v2=v2, r1=0.0, r2=1.0, V0=v2, Acm=0.0, D0=D0, W0=W0,
+                        A0=(b1 - F0) / m1, kappa=s / m1, F0=F0)
+        # vehicle 2 moves: m2 D'' = -m2 a2 = -(F + b2)
+        return _Seg(x1=x1, x2=x2, v1=v1, v2=v2, r1=1.0, r2=0.0, V0=v1, Acm=0.0, D0=D0, W0=W0,
+                    A0=-(b2 + F0) / m2, kappa=s / m2, F0=F0)
     M = m1 + m2
     r1, r2 = m1 / M, m2 / M
     mu = m1 * m2 / M
@@ -179,13 +220,15 @@ def _state(xp, tau, g: _Seg):
             g.v1 + dV + g.r2 * dW, g.v2 + dV - g.r1 * dW)
 
 
-def _crossing(xp, a, b, c, kappa, ws, now):
+def _crossing(xp, a, b, c, kappa, ws, now, A0=0.0):
     """The first downward zero crossing at ``τ > 0`` of an event function ``g`` whose sign is
     that of ``h(z) = a z² + b z + c`` at ``z(τ)`` (``c = g(0)``), or ``τ = 0`` where ``now``.
 
     ``h`` has at most one downward root: ``q/a`` if ``b >= 0``, else ``c/q``, with
     ``q = -(b + sign(b) √(b² - 4ac))/2`` (no cancellation; ``a = 0`` puts it at infinity, which
-    is ``ωτ = π`` in the harmonic case); a double root is a touch, not a crossing. A root at
+    is ``ωτ = π`` in the harmonic case); a double root is a touch, not a crossing, and so is a
+    discriminant within rounding of zero (:data:`_TOUCH`; ``A0`` [acceleration], the relative
+    acceleration in ``a``, for its rounding scale). A root at
     ``τ = 0`` that is not ``now`` (a start on the surface, leaving it) counts as the next one, a
     period later (harmonic) or never. Returns ``(key, y, x, u)``: ``key`` orders the crossings of
     one segment in time (``inf``: none); ``τ = 2 atan2(y, x)/ω`` (harmonic), ``2 atanh(u)/λ``
@@ -210,7 +253,10 @@ def _crossing(xp, a, b, c, kappa, ws, now):
     u = xp.where(now, 0.0, xp.where(zero, xp.inf, u))
     ok = ((u > 0) | now) & ((kappa >= 0) | (u < 1))
     key = xp.where(kappa > 0, pseudo, xp.where(ok, u, xp.inf))
-    return xp.where((disc > 0) | now, key, xp.inf), y, x, u
+    # (rounding scale of the discriminant: a = κc/4 ± A0/2 of the level events may cancel)
+    a_mag = xp.abs(a) + 0.25 * xp.abs(kappa * c) + 0.5 * xp.abs(A0)
+    crosses = disc > _TOUCH * (b * b + 4.0 * a_mag * xp.abs(c))
+    return xp.where(crosses | now, key, xp.inf), y, x, u
 
 
 def _level_now(a, b, c, vtol):
@@ -233,10 +279,10 @@ def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
     ws = xp.where(w > 0, w, 1.0)
     dl = D0 - lo
     a = 0.25 * kappa * dl + 0.5 * A0
-    k0, y0, x0, u0 = _crossing(xp, a, W0, dl, kappa, ws, _level_now(a, W0, dl, vtol))
+    k0, y0, x0, u0 = _crossing(xp, a, W0, dl, kappa, ws, _level_now(a, W0, dl, vtol), A0)
     dh = hi - D0
     a = 0.25 * kappa * dh - 0.5 * A0
-    k1, y1, x1, u1 = _crossing(xp, a, -W0, dh, kappa, ws, _level_now(a, -W0, dh, vtol))
+    k1, y1, x1, u1 = _crossing(xp, a, -W0, dh, kappa, ws, _level_now(a, -W0, dh, vtol), A0)
     # the common velocity: at once if the closing rate is not positive and falls
     k2, y2, x2, u2 = _crossing(xp, -0.25 * kappa * W0, A0, W0, kappa, ws, (W0 <= 0) & (A0 < 0))
     k0 = xp.where(lo > -_ARMED, k0, xp.inf)
@@ -249,25 +295,216 @@ def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
     x = xp.where(first0, x0, xp.where(first1, x1, x2))
     u = xp.where(first0, u0, xp.where(first1, u1, u2))
     if fail is not None:
-        # the force rises through F_f where D reaches L = da + (F_f - fa)/s: going up if s > 0,
-        # going down if s < 0 (a falling table); a flat or open segment never crosses it
         fa, s, da, ff = fail
-        up, down = s > 0, s < 0
-        level = da + (ff - fa) / xp.where(up | down, s, 1.0)
-        sign = xp.where(up, 1.0, -1.0)
-        c = sign * (level - D0)
-        a = 0.25 * kappa * c - 0.5 * sign * A0
-        k3, y3, x3, u3 = _crossing(xp, a, -sign * W0, c, kappa, ws,
-                                   _level_now(a, -sign * W0, c, vtol))
-        first3 = (k3 < key) & (up | down)
+        k3, y3, x3, u3 = _force_rises(xp, g, fa, s, da, ff, ws, vtol)
+        first3 = k3 < key
         which = xp.where(first3, 3, which)
         key = xp.where(first3, k3, key)
         y, x, u = xp.where(first3, y3, y), xp.where(first3, x3, x), xp.where(first3, u3, u)
+    return _to_time(xp, kappa, ws, key, y, x, u), which
+
+
+def _force_rises(xp, g: _Seg, fa, s, da, level, ws, vtol):
+    """The crossing (as :func:`_crossing`) where the force ``F = fa + s (D - da)`` rises through
+    ``level`` [force]: ``D`` reaches ``L = da + (level - fa)/s`` going up if ``s > 0``, going
+    down if ``s < 0`` (a falling table); a flat or open segment never crosses it."""
+    up, down = s > 0, s < 0
+    L = da + (level - fa) / xp.where(up | down, s, 1.0)
+    sign = xp.where(up, 1.0, -1.0)
+    c = sign * (L - g.D0)
+    a = 0.25 * g.kappa * c - 0.5 * sign * g.A0
+    key, y, x, u = _crossing(xp, a, -sign * g.W0, c, g.kappa, ws,
+                             _level_now(a, -sign * g.W0, c, vtol), g.A0)
+    return xp.where(up | down, key, xp.inf), y, x, u
+
+
+def _to_time(xp, kappa, ws, key, y, x, u):
+    """The time ``τ`` of a crossing found by :func:`_crossing` (``inf`` where ``key`` is)."""
     pos, neg = kappa > 0, kappa < 0
     us = xp.where((u > 0) & (u < 1), u, 0.5)
     tau = xp.where(pos, 2.0 * xp.masked("arctan2", pos, y, x) / ws,
                    xp.where(neg, xp.masked("log1p", neg, 2.0 * us / (1.0 - us)) / ws, 2.0 * u))
-    return xp.where(key < xp.inf, tau, xp.inf), which
+    return xp.where(key < xp.inf, tau, xp.inf)
+
+
+def _force_rise_time(xp, g: _Seg, fa, s, da, level, vtol):
+    """Time from the segment start until the contact force rises through ``level`` [force]
+    (``inf``: never in this segment): a stuck braked vehicle's break-away."""
+    w = xp.sqrt(xp.abs(g.kappa))
+    ws = xp.where(w > 0, w, 1.0)
+    key, y, x, u = _force_rises(xp, g, fa, s, da, level, ws, vtol)
+    return _to_time(xp, g.kappa, ws, key, y, x, u)
+
+
+# ============================================================================ braking (one scene)
+# A sliding vehicle's velocity in a segment, v_i(τ) = v_i(0) + Acm τ + share ΔW(τ), is not a
+# polynomial in any one substitution (the uniform deceleration of the reference point beside the
+# oscillation), so its zero is found numerically, to the last bit: its acceleration
+# Acm + share D''(τ) is a constant plus a sinusoid (or two exponentials), whose zeros are in closed
+# form, so v_i is monotone between them; the first interval where d v_i (d: the direction of
+# sliding) falls from positive to non-positive brackets the stop, which a safeguarded Newton
+# iteration then finds.
+
+def _vehicle_share(g: _Seg, i: int):
+    """``(v_i(0), share)``: vehicle ``i`` moves by ``share ΔD`` beside the reference point."""
+    return (g.v1, g.r2) if i == 0 else (g.v2, -g.r1)
+
+
+def _ddot(g: _Seg, tau: float) -> float:
+    """``D''(τ)`` [acceleration] (``D' = W0 + A0 S - κ W0 C``)."""
+    k = g.kappa
+    if k > 0:
+        w = math.sqrt(k)
+        return g.A0 * math.cos(w * tau) - g.W0 * w * math.sin(w * tau)
+    if k < 0:
+        w = math.sqrt(-k)
+        return g.A0 * math.cosh(w * tau) + g.W0 * w * math.sinh(w * tau)
+    return g.A0
+
+
+def _turns(g: _Seg, share: float, tau_max: float):
+    """Times in ``(0, τ_max)``, increasing, where vehicle's acceleration ``Acm + share D''(τ)``
+    changes sign (its velocity is monotone between them)."""
+    k, Acm = g.kappa, g.Acm
+    if k > 0:
+        # Acm + P cos θ - Q sin θ = Acm + R cos(θ + φ), θ = ωτ
+        w = math.sqrt(k)
+        P, Q = share * g.A0, share * g.W0 * w
+        R = math.hypot(P, Q)
+        if not R > abs(Acm):
+            return
+        beta, phi = math.acos(-Acm / R), math.atan2(Q, P)
+        first = sorted((b - phi) % (2.0 * math.pi) for b in (beta, -beta))
+        th_max = w * tau_max
+        n = 0
+        while True:
+            for r in first:
+                th = r + 2.0 * math.pi * n
+                if not th < th_max:
+                    return
+                if th > 0:
+                    yield th / w
+            n += 1
+    elif k < 0:
+        # Acm + P u + Q/u with u = exp(λτ) > 1: the roots of P u² + Acm u + Q
+        w = math.sqrt(-k)
+        P, Q = share * 0.5 * (g.A0 + g.W0 * w), share * 0.5 * (g.A0 - g.W0 * w)
+        roots = []
+        if P == 0:
+            if Acm != 0:
+                roots = [-Q / Acm]
+        else:
+            disc = Acm * Acm - 4.0 * P * Q
+            if disc > 0:
+                q = -0.5 * (Acm + math.copysign(math.sqrt(disc), Acm))
+                roots = [q / P] + ([Q / q] if q != 0 else [])
+        for t in sorted(math.log(u) / w for u in roots if u > 1):
+            if t < tau_max:
+                yield t
+
+
+def _root_down(f, df, a: float, b: float, fa: float, fb: float) -> float:
+    """The zero of ``f``, decreasing on ``[a, b]`` with ``f(a) > 0 >= f(b)``, to the last bit:
+    Newton's method kept inside the bracket (``rtsafe``), bisection where it would leave it or
+    converges too slowly. Returns the iterate with the smallest ``|f|``."""
+    if fb == 0:
+        return b
+    x = a + (b - a) * fa / (fa - fb)       # a secant start inside the bracket
+    if not a < x < b:
+        x = 0.5 * (a + b)
+    fx, dfx = f(x), df(x)
+    best = (abs(fx), x)
+    dx_old = dx = b - a
+    for _ in range(200):
+        if fx > 0:
+            a = x
+        elif fx < 0:
+            b = x
+        else:
+            return x
+        if (((x - b) * dfx - fx) * ((x - a) * dfx - fx) > 0) or abs(2.0 * fx) > abs(dx_old * dfx):
+            dx_old, dx = dx, 0.5 * (b - a)
+            x_new = a + dx
+        else:
+            dx_old, dx = dx, fx / dfx
+            x_new = x - dx
+        if x_new == x or not a <= x_new <= b or abs(dx) <= 2.0 * math.ulp(x_new):
+            if a <= x_new <= b and x_new != x:
+                fn = f(x_new)
+                best = min(best, (abs(fn), x_new))
+            return best[1]
+        x = x_new
+        fx, dfx = f(x), df(x)
+        best = min(best, (abs(fx), x))
+    return best[1]
+
+
+def _stop_time(g: _Seg, i: int, d: float, tau_max: float) -> float:
+    """Time from the segment start until vehicle ``i``, sliding in direction ``d`` (±1), stops:
+    ``d v_i`` falls through zero (``inf``: not before ``τ_max``). At once when it starts at or
+    below zero and falls (a contact event at the same instant came first); not when it starts at
+    zero and rises (just broken away, or reversed)."""
+    v0, share = _vehicle_share(g, i)
+    k, A0, W0, Acm = g.kappa, g.A0, g.W0, g.Acm
+
+    def f(t):
+        S, C = _basis(_PY, t, k)
+        return d * (v0 + Acm * t + share * (A0 * S - k * W0 * C))
+
+    def df(t):
+        return d * (Acm + share * _ddot(g, t))
+
+    f0, a0 = d * v0, df(0.0)
+    if f0 <= 0 and a0 < -1e-12 * (abs(Acm) + abs(share * A0)):
+        return 0.0
+    if not tau_max > 0:
+        return math.inf
+    if Acm == 0 and abs(share) == 1 and v0 == W0 * share:
+        # against a held vehicle (at rest, exactly): the velocity is ±W, whose zero is in closed
+        # form, the same as the common velocity's (so a tie with it is exact, and goes to it)
+        s = d * share
+        w = math.sqrt(abs(k))
+        ws = w if w > 0 else 1.0
+        key, y, x, u = _crossing(_PY, -0.25 * k * W0 * s, A0 * s, W0 * s, k, ws, False)
+        tau = _to_time(_PY, k, ws, key, y, x, u)
+        return tau if tau <= tau_max else math.inf
+    a, fa = 0.0, f0
+    for b in itertools.chain(_turns(g, share, tau_max), (tau_max,)):  # lazily: stops early
+        fb = f(b)
+        if fa > 0 and fb <= 0:
+            return _root_down(f, df, a, b, fa, fb)
+        a, fa = b, fb
+    return math.inf
+
+
+def _turning_deformations(g: _Seg, tau: float) -> list:
+    """Deformations where the closing rate ``W`` passes zero inside ``(0, τ)`` (at most one
+    maximum and one minimum: later ones repeat them): with a constant friction force the
+    deformation, and with it the force, need not be monotone along a segment."""
+    k, W0, A0 = g.kappa, g.W0, g.A0
+    ts = []
+    if k > 0:
+        # W = W0 cos ωτ + (A0/ω) sin ωτ = R cos(ωτ - ψ): zero at ωτ = ψ + π/2 + nπ
+        w = math.sqrt(k)
+        th = (math.atan2(A0 / w, W0) + 0.5 * math.pi) % math.pi
+        th = th if th > 0 else math.pi
+        while th < w * tau and len(ts) < 2:
+            ts.append(th / w)
+            th += math.pi
+    elif k < 0:
+        w = math.sqrt(-k)
+        if A0 != 0:
+            x = -W0 * w / A0     # tanh(λτ) = x
+            if -1 < x < 1:
+                ts.append(math.atanh(x) / w)
+    elif A0 != 0:
+        ts.append(-W0 / A0)
+    out = []
+    for t in ts:
+        if 0 < t < tau:
+            S, C = _basis(_PY, t, k)
+            out.append(g.D0 + (W0 * S + A0 * C))
+    return out
 
 
 # ============================================================================ applicability
@@ -275,8 +512,6 @@ def why_not(scene) -> str | None:
     """Why the exact backend does not apply to ``scene`` (``None`` if it does)."""
     if scene.n_vehicles != 2:
         return "it needs exactly two vehicles"
-    if any(v.brake is not None for v in scene.vehicles):
-        return "it has no braking yet"
     c = scene.contacts[0]
     if not isinstance(c.law, Hysteresis):
         return "it needs the IF-D hysteresis contact law (piecewise-linear loading and unloading)"
@@ -309,7 +544,7 @@ class _ScalarTransitions:
     def apply_event(self, i, t, y, disc, p, xp=None):
         """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
         k, w = self._model.events[i]
-        if k >= self._model.K:  # an effect (bumper failure): the model's own, on NumPy
+        if k >= self._model.K:  # an effect (brake, bumper failure): the model's own, on NumPy
             return self._model.apply_event(i, t, y, disc, p)
         D, Dd = self._model.deformation(np.asarray(y, float), p)
         new = list(disc)
@@ -323,6 +558,12 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
 
     ``t_end`` [time]: simulate until then (must not cut the crash); ``n_samples``: points in the
     sampled series (every event is a sample); ``max_events``: limit on discrete events.
+
+    Braked vehicles slide (constant friction force) or stick (held, ``a = 0``) as their
+    :class:`~lsc.effects.BrakeEffect` says; the run ends when the model says the crash is over
+    (a braked vehicle still sliding after the last separation produces its stop event), and
+    ``v_final`` is taken at the last separation. Peaks are exact: with friction the force need
+    not be monotone along a segment, so its turning points count as well.
     """
     reason = why_not(model.scene)
     if reason:
@@ -340,23 +581,71 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     failure = [(model.parts.index(f), model.events.index((model.parts.index(f), 0)),
                 float(f.params["force"])) for f in getattr(model, "failures", [])]
     ev_index += [ev for _, ev, _ in failure]
+    # declared brakes: part, vehicle, sliding friction force per direction [force], static
+    # limit [force], and the events (stop, break-away: forward for the target, whose net contact
+    # force F pushes it forward; backward for the bullet, pushed back by F)
+    brakes = []
+    for b in getattr(model, "brakes", []):
+        j, m = model.parts.index(b), (m1, m2)[b.i]
+        gg = float(b.params["g"])
+        brakes.append((j, b.i, float(b.params["mu"]) * m * gg, float(b.params["mus"]) * m * gg,
+                       model.events.index((j, 0)), model.events.index((j, 1 if b.i else 2))))
+    mass = (m1, m2)
+    peak_a = [0.0, 0.0]
 
     def advance(t0, y0, disc, horizon):
         st = disc[0]
         x1, x2, v1, v2 = (float(v) for v in y0[:4])
-        g = _setup(x1, x2, v1, v2, m1, m2, gap, st["fa"], st["s"], st["da"])
+        hold, push = [False, False], [0.0, 0.0]
+        for j, i, slide, _, _, _ in brakes:
+            if disc[j]["slide"]:
+                push[i] = -slide * disc[j]["dir"]
+            else:
+                hold[i] = True
+        g = _setup(x1, x2, v1, v2, m1, m2, gap, st["fa"], st["s"], st["da"], push[0], push[1],
+                   hold[0], hold[1])
         armed = [ff for j, _, ff in failure if not disc[j]["failed"]]
         fail = (st["fa"], st["s"], st["da"], armed[0]) if armed else None
         tau, which = _next_event(_PY, g, st["lo"], st["hi"], st["vm"], vtol, fail)
-        event = ev_index[which]
+        event = ev_index[which] if tau < math.inf else None
+        stopped = None
+        for j, i, _, limit, ev_stop, ev_break in brakes:
+            if disc[j]["slide"]:
+                cand = _stop_time(g, i, disc[j]["dir"], min(tau, horizon - t0))
+                ev = ev_stop
+            else:
+                cand = _force_rise_time(_PY, g, st["fa"], st["s"], st["da"], limit, vtol)
+                ev = ev_break
+            if cand < tau or (cand == tau and event is not None and ev < event):
+                tau, event, stopped = cand, ev, (i if ev == ev_stop else None)
         if not t0 + tau <= horizon:
-            tau, event = horizon - t0, None
-        end = _state(_PY, tau, g)
-        peak[0] = max(peak[0], g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+            tau, event, stopped = horizon - t0, None, None
+        end = list(_state(_PY, tau, g))
+        if stopped is not None:
+            end[2 + stopped] = 0.0   # the stop, exactly (held at zero while stuck)
+        if not brakes:
+            peak[0] = max(peak[0], g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+        else:
+            # the force over the segment: at its ends and where D turns inside it
+            Ds = [g.D0, end[0] - end[1] - gap, *_turning_deformations(g, tau)]
+            Fs = [_end_force(_PY, law, D, st) for D in Ds]
+            lo_f, hi_f = min(Fs), max(Fs)
+            peak[0] = max(peak[0], hi_f)
+            for i, sign in ((0, -1.0), (1, 1.0)):
+                if hold[i]:
+                    continue
+                for F in (hi_f, lo_f):
+                    a = (sign * F + push[i]) / mass[i]
+                    if abs(a) > abs(peak_a[i]):
+                        peak_a[i] = a
 
-        def dense(tt, g=g, t0=t0):
+        def dense(tt, g=g, t0=t0, t1=t0 + tau, stopped=stopped):
+            tt = np.asarray(tt, float)
             with np.errstate(all="ignore"):
-                return np.array(_state(np, np.asarray(tt, float) - t0, g))
+                out = np.array(_state(np, tt - t0, g))
+            if stopped is not None:  # at rest from the stop on, as the state is
+                out[2 + stopped] = np.where(tt >= t1, 0.0, out[2 + stopped])
+            return out
 
         return Step(t0 + tau, np.array(end), event, dense, 1, 0)
 
@@ -367,10 +656,12 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": wall}
     r = build_result(model, segments, events, y, disc, method="exact", tolerances={},
-                     stats=stats, n_samples=n_samples)
-    # The exact peaks (at event points, see _end_force) rather than the largest samples.
+                     stats=stats, n_samples=n_samples, y_post=totals["y_post"])
+    # The exact peaks (at event points and turning points, see _end_force) rather than the
+    # largest samples.
     r.peak_force = np.array([peak[0]])
-    r.peak_acceleration = np.array([-peak[0] / m1, peak[0] / m2])
+    r.peak_acceleration = (np.array(peak_a) if brakes else
+                           np.array([-peak[0] / m1, peak[0] / m2]))
     r.peak_acceleration_g = r.peak_acceleration / model.scene.g
     return r
 
@@ -379,7 +670,8 @@ def _end_force(xp, law, D, st):
     """Contact force at the end of a segment, ``D`` [length] clamped to the segment's range
     ``[lo, hi]`` (an overshoot at rounding level times a very stiff unloading slope is not a
     force). With no braking the force is monotone along each segment (``D`` is monotone while
-    ``F >= 0``), so its peak is the larger of the forces at the two ends."""
+    ``F >= 0``), so its peak is the larger of the forces at the two ends (with braking, see
+    :func:`_turning_deformations`)."""
     return law.force(xp.minimum(xp.maximum(D, st["lo"]), st["hi"]), 0.0, st)
 
 
@@ -475,6 +767,10 @@ def _batch_inputs(params: dict) -> dict:
     """Validated, broadcast float arrays from the :func:`solve_batch` parameters."""
     known = {"m1", "m2", "v1", "v2", "gap", "stiffness", "load_d", "load_f", "load_end_slope",
              "e", "unload_stiffness", "unload_d", "unload_f", "g", "failure_force"}
+    braking = {k for k in params if "mu" in k or "brake" in k}
+    if braking:
+        raise ValueError(f"braking ({', '.join(sorted(braking))}) is not batched: solve_batch has "
+                         "no friction forces; solve braked scenes one by one with exact.solve")
     unknown = set(params) - known
     if unknown:
         raise ValueError(f"unknown batch parameter(s) {sorted(unknown)}; accepted: {sorted(known)}")
@@ -611,6 +907,9 @@ def solve_batch(params: dict, *, max_events: int = 10_000) -> dict:
     g : optional (B,) gravity [acceleration], for ``peak_acceleration_g``
     failure_force : optional (B,) bumper failure force [force] (inf or nan: none), for
         ``failure_time``
+
+    No braking: the batch has no friction forces (:func:`batch_params` rejects braked scenes,
+    and brake parameters here are an error); solve braked scenes one by one with :func:`solve`.
 
     Every member advances its own segment each iteration (finished members leave the batch);
     the transitions are the law's ``on_event`` on arrays (:class:`_Rows` gives per-member table
@@ -758,6 +1057,9 @@ def batch_params(scenes) -> dict:
         reason = why_not(sc)
         if reason:
             raise ValueError(f"scene {i}: the exact backend does not apply: {reason}")
+        if any(v.brake is not None for v in sc.vehicles):
+            raise ValueError(f"scene {i}: braked scenes are not batched (solve_batch has no "
+                             "friction forces): solve each with exact.solve")
     laws = [sc.contacts[0].law for sc in scenes]
     curves = [law.loading for law in laws]
     if len({c.d.size for c in curves}) != 1 or len({c.extends for c in curves}) != 1:

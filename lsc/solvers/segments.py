@@ -53,7 +53,7 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
     disc = model.to_python(disc)
     model.check_status(disc, 0.0)
     t = 0.0
-    horizon = float(t_end) if t_end is not None else 1e6 * model.time_scale() + 1.0
+    horizon = float(t_end) if t_end is not None else model.horizon()
     segments, events = [], []
     totals = {"steps": 0, "nfev": 0}
     for k, st in enumerate(disc[: model.K]):
