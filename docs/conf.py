@@ -35,6 +35,8 @@ sphinx_gallery_conf = {
     # LSC_DOCS_QUICK=1 builds the pages without running the examples (for a fast check).
     "plot_gallery": "False" if os.environ.get("LSC_DOCS_QUICK") else "True",
     "abort_on_example_error": True,
+    # no docs/sg_execution_times.rst: timings of one build are not source
+    "write_computation_times": False,
 }
 
 html_theme = "furo"
