@@ -299,7 +299,7 @@ def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, f
             ax.annotate("0" if abs(v) <= 1e-9 * big else f"{v:+.3g}", (v, yy), xytext=(4 if v >= 0 else -4, 0),
                         textcoords="offset points", ha="left" if v >= 0 else "right",
                         va="center", fontsize=8)
-        ax.set_xlabel("elasticity: % change of the metric per % change of the parameter")
+        ax.set_xlabel("elasticity (% change per % change of the parameter)")
         lim = max(np.max(np.abs(vals)) if vals.size else 1.0, 1e-12) * 1.3
         ax.set_xlim(-lim, lim)
     else:

@@ -120,3 +120,13 @@ def test_sensitivity_errors(main, tmp_path, capsys):
     assert main(["sensitivity", str(f), "--method", "finite-difference", "--metrics", "duration",
                  "--plot", str(tmp_path / "x.png"), "--plot-metric", "delta_v"]) == 2
     assert "not among --metrics" in capsys.readouterr().err
+
+
+def test_run_prints_the_mer_cross_check(main, tmp_path, capsys):
+    """`lsc run` sets the MER ΔVs beside the simulated ones (issue #5.3)."""
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    assert main(["run", str(f), "--out", str(tmp_path / "out"), "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "MER cross-check" in text
+    assert "target: delta_v +4.5 ft/s (MER), +4.5 ft/s (simulation)" in text
