@@ -134,11 +134,13 @@ class Sensitivity:
     def derivative(self, metric: str, param, index=None) -> float:
         """``∂metric/∂param`` [metric unit / parameter unit] (``index``: the vehicle or contact
         of a per-vehicle or per-contact metric, default the front vehicle / contact 0)."""
-        return float(self.derivatives[metric][self._index(metric, index) + (self._param(param),)])
+        idx = self._index(metric, index) + (self._param(param),)
+        return float(self.derivatives[metric][idx])
 
     def elasticity(self, metric: str, param, index=None) -> float:
         """``(∂M/∂p) p / M`` for one metric and parameter (see :attr:`elasticities`)."""
-        return float(self.elasticities[metric][self._index(metric, index) + (self._param(param),)])
+        idx = self._index(metric, index) + (self._param(param),)
+        return float(self.elasticities[metric][idx])
 
     def value(self, metric: str, index=None) -> float:
         """The metric's value at the scene (of vehicle / contact ``index``)."""
