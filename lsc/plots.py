@@ -5,7 +5,10 @@
 - :func:`velocity`: velocity against time per vehicle (Fig. 7);
 - :func:`ifd_loop`: force against deformation per contact, loading and unloading branches
   (the IF-D loop, Fig. 3);
-- :func:`save_all`: the three as ``acceleration.png``, ``velocity.png`` and ``ifd.png``.
+- :func:`save_all`: the three as ``acceleration.png``, ``velocity.png`` and ``ifd.png``;
+- :func:`tornado`: a tornado chart of the sensitivities of one metric
+  (:func:`lsc.analysis.sensitivity`);
+- :func:`sweep_metric`: one metric of a sweep against the swept parameter.
 
 Each function draws on ``ax`` if given, else on a new figure, and returns the figure. Events
 (contact, max deformation, separation, ...) are marked. Units come from ``result.units``.
@@ -19,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["acceleration", "velocity", "ifd_loop", "save_all", "FILES"]
+__all__ = ["acceleration", "velocity", "ifd_loop", "save_all", "sweep_metric", "tornado", "FILES"]
 
 #: The files :func:`save_all` writes.
 FILES = ("acceleration.png", "velocity.png", "ifd.png")
@@ -236,6 +239,90 @@ def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None)
     ax.set_ylabel(label + (f" [{unit}]" if unit else ""))
     ax.set_title(f"{sweep.scene.name} ({sweep.method})")
     ax.grid(True, alpha=0.3)
+    if file is None:
+        return fig
+    fig.savefig(file, dpi=150)
+    return Path(file)
+
+
+def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, file=None):
+    """A tornado chart of one metric of a :class:`~lsc.analysis.sensitivity.Sensitivity`: one
+    horizontal bar per parameter, the largest effect on top.
+
+    ``swing=None``: each bar is the elasticity ``(∂M/∂p) p / M`` (percent change of the metric
+    per percent change of the parameter; red where raising the parameter raises the metric).
+    ``swing=r`` (a number, e.g. ``0.1``): each bar spans the metric's first-order values with
+    the parameter moved by ``± r`` of its value (``M ± |∂M/∂p| r p``), around ``M``; ``swing``
+    a dict of parameter path → ``Δ`` (scene units, or a string with units): moved by ``± Δ``
+    (parameters left out are not drawn). ``index``: the vehicle (index or name) or contact of a
+    per-vehicle / per-contact metric (default: the front vehicle, contact 0). Draws on ``ax``
+    or a new figure; returns the figure (with ``file``: saves it there and returns the path).
+    """
+    from matplotlib.figure import Figure
+    from .analysis._common import path_quantity
+
+    idx = sens._index(metric, index)
+    d = np.asarray(sens.derivatives[metric])[idx]
+    M = sens.value(metric, index)
+    unit = sens.units[metric]
+    labels = list(sens.labels)
+    if swing is None:
+        score = np.asarray(sens.elasticities[metric])[idx]
+        keep = [j for j in range(len(labels)) if np.isfinite(score[j])]
+    else:
+        if isinstance(swing, dict):
+            deltas = np.full(len(labels), np.nan)
+            for path, dv in swing.items():
+                j = sens._param(path)
+                deltas[j] = abs(path_quantity(dv, sens.scene, sens.params[j]))
+        else:
+            r = float(swing)
+            if not (np.isfinite(r) and r > 0):
+                raise ValueError(f"swing must be a positive fraction or a dict, got {swing!r}")
+            deltas = r * np.asarray(sens.reference, float)
+        score = d * deltas
+        keep = [j for j in range(len(labels)) if np.isfinite(score[j])]
+    keep.sort(key=lambda j: abs(score[j]))  # smallest first: it is drawn at the bottom
+    if ax is None:
+        fig = Figure(figsize=(7.0, 0.8 + 0.42 * max(len(keep), 1)), layout="constrained")
+        ax = fig.add_subplot()
+    else:
+        fig = ax.figure
+    y = np.arange(len(keep))
+    what = sens.label(metric, index)
+    if swing is None:
+        vals = np.array([score[j] for j in keep])
+        ax.barh(y, vals, color=["C3" if v > 0 else "C0" for v in vals], height=0.6)
+        ax.axvline(0.0, color="0.3", lw=0.8)
+        big = np.max(np.abs(vals)) if vals.size else 0.0
+        for yy, v in zip(y, vals):
+            ax.annotate("0" if abs(v) <= 1e-9 * big else f"{v:+.3g}", (v, yy), xytext=(4 if v >= 0 else -4, 0),
+                        textcoords="offset points", ha="left" if v >= 0 else "right",
+                        va="center", fontsize=8)
+        ax.set_xlabel("elasticity (% change per % change of the parameter)")
+        lim = max(np.max(np.abs(vals)) if vals.size else 1.0, 1e-12) * 1.3
+        ax.set_xlim(-lim, lim)
+    else:
+        for yy, j in zip(y, keep):
+            s = score[j]  # the change when the parameter rises by its swing
+            ax.barh(yy, s, left=M, color="C3", height=0.6,
+                    label="parameter raised" if yy == y[-1] else None)
+            ax.barh(yy, -s, left=M, color="C0", height=0.6,
+                    label="parameter lowered" if yy == y[-1] else None)
+        ax.axvline(M, color="0.3", lw=0.8)
+        ax.set_xlabel(f"{what}" + (f" [{unit}]" if unit else "")
+                      + (f", parameters ±{100 * float(swing):g} %" if not isinstance(swing, dict)
+                         else ", parameters moved by their swing"))
+        if keep:
+            ax.legend(fontsize=8, loc="lower right")
+    if swing is None:  # a zero parameter is normalised by its reference value: say which
+        for j in range(len(labels)):
+            if sens.values[j] == 0:
+                labels[j] += f"\n(% of {sens.reference[j]:g} {sens.param_units[j]})".replace(" )", ")")
+    ax.set_yticks(y)
+    ax.set_yticklabels([labels[j] for j in keep])
+    ax.set_title(f"{sens.scene.name}\n{what} = {M:.4g} {unit}".rstrip(), fontsize=10)
+    ax.grid(True, axis="x", alpha=0.3)
     if file is None:
         return fig
     fig.savefig(file, dpi=150)

@@ -87,3 +87,46 @@ def test_mc_uncertainty_file_and_errors(main, tmp_path, capsys):
     assert "vehicles.0.speed" in capsys.readouterr().out
     u.write_text('"vehicles.0.speed" = { uniform = [9, 3] }\n')
     assert main(["mc", str(f), "--n", "100", "--uncertainty", str(u)]) == 2
+
+
+def test_sensitivity(main, tmp_path, capsys):
+    pytest.importorskip("diffrax")
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    out, png = tmp_path / "s.json", tmp_path / "tornado.png"
+    assert main(["sensitivity", str(f), "--json", str(out), "--plot", str(png),
+                 "--plot-metric", "peak_acceleration"]) == 0
+    text = capsys.readouterr().out
+    assert "forward-mode autodiff" in text and "delta_v, target = 4.5 ft/s" in text
+    assert "tornado chart written" in text and png.stat().st_size > 1000
+    d = json.loads(out.read_text())
+    j = d["params"].index("contacts.0.unloading.restitution")
+    assert d["derivatives"]["delta_v"][1][j] == pytest.approx(2.5, rel=1e-10)   # v0 m1/(m1+m2)
+    assert d["elasticities"]["duration"][d["params"].index("contacts.0.loading.scale")] == \
+        pytest.approx(-0.5, rel=1e-9)
+    # finite differences, a chosen parameter list and metric
+    assert main(["sensitivity", str(f), "--method", "finite-difference", "--params",
+                 "vehicles.0.speed,vehicles.1.weight", "--metrics", "peak_acceleration_g"]) == 0
+    text = capsys.readouterr().out
+    assert "closed-form" in text and "vehicles.1.weight" not in text and "target weight" in text
+
+
+def test_sensitivity_errors(main, tmp_path, capsys):
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    assert main(["sensitivity", str(f), "--method", "finite-difference", "--params",
+                 "vehicles.0.colour"]) == 2
+    assert "not a differentiable parameter" in capsys.readouterr().err
+    assert main(["sensitivity", str(f), "--method", "finite-difference", "--metrics", "duration",
+                 "--plot", str(tmp_path / "x.png"), "--plot-metric", "delta_v"]) == 2
+    assert "not among --metrics" in capsys.readouterr().err
+
+
+def test_run_prints_the_mer_cross_check(main, tmp_path, capsys):
+    """`lsc run` sets the MER ΔVs beside the simulated ones (issue #5.3)."""
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    assert main(["run", str(f), "--out", str(tmp_path / "out"), "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "MER cross-check" in text
+    assert "target: delta_v +4.5 ft/s (MER), +4.5 ft/s (simulation)" in text

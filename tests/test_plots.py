@@ -146,3 +146,64 @@ def test_ifd_loop_e0_drops_at_max_deformation():
     assert d == pytest.approx([r.max_deformation[0]] * 2)
     assert f == pytest.approx([r.peak_force[0], 0.0])
     assert r.permanent_deformation[0] == pytest.approx(r.max_deformation[0])
+
+
+# ---------------------------------------------------------------------------- tornado
+@pytest.fixture(scope="module")
+def sens():
+    """Sensitivities of a table scene by finite differences of the exact backend (no JAX)."""
+    from lsc.analysis import sensitivity
+    scene = {"name": "table", "units": "US",
+             "vehicles": [{"name": "bullet", "weight": 4000, "speed": 6},
+                          {"name": "target", "weight": 3000, "speed": 0}],
+             "contacts": [{"loading": {"table": [[0, 0], [0.02, 400], [0.05, 3000], [0.3, 40000]]},
+                           "unloading": {"restitution": 0.4}}]}
+    return sensitivity(scene, metrics=("delta_v", "peak_acceleration_g", "duration"),
+                       method="finite-difference")
+
+
+def _bars(ax):
+    return [p for p in ax.patches if isinstance(p, mpl.patches.Rectangle)]
+
+
+@pytest.mark.parametrize("metric, index", [("delta_v", None), ("peak_acceleration_g", "bullet"),
+                                           ("duration", None)])
+def test_tornado_bars_are_the_elasticities_largest_on_top(sens, metric, index):
+    fig = plots.tornado(sens, metric, index)
+    ax = fig.axes[0]
+    bars = sorted(_bars(ax), key=lambda p: p.get_y())       # bottom to top
+    el = sens.elasticities[metric][sens._index(metric, index)]
+    want = sorted(el, key=abs)                                # smallest at the bottom
+    assert [b.get_width() for b in bars] == pytest.approx(want, rel=1e-12, abs=1e-15)
+    assert all(b.get_x() == 0 for b in bars)
+    order = sorted(range(len(el)), key=lambda j: abs(el[j]))
+    labels = [t.get_text().split("\n")[0] for t in ax.get_yticklabels()]
+    assert labels == [sens.labels[j] for j in order]
+    # raising the parameter raises the metric: red; lowers it: blue
+    for b, v in zip(bars, want):
+        assert mpl.colors.to_hex(b.get_facecolor()) == mpl.colors.to_hex("C3" if v > 0 else "C0")
+    who = "bullet" if index == "bullet" else ("target" if metric != "duration" else "")
+    assert who in ax.get_title() and "elasticity" in ax.get_xlabel()
+
+
+def test_tornado_swing_spans_the_first_order_range(sens, tmp_path):
+    fig, ax = plt.subplots()
+    assert plots.tornado(sens, "delta_v", swing=0.1, ax=ax) is fig
+    M = sens.value("delta_v")
+    d = sens.derivatives["delta_v"][1]
+    spans = d * 0.1 * sens.reference
+    bars = _bars(ax)
+    assert len(bars) == 2 * len(sens.params)
+    assert all(b.get_x() == pytest.approx(M) for b in bars)
+    widths = sorted(abs(b.get_width()) for b in bars)
+    assert widths == pytest.approx(sorted(np.repeat(np.abs(spans), 2)), rel=1e-12, abs=1e-15)
+    # explicit swings in units; the others are left out
+    path = plots.tornado(sens, "delta_v", swing={"vehicles.0.speed": "1 mph",
+                                                 "contacts.0.unloading.restitution": 0.1},
+                         file=tmp_path / "t.png")
+    assert path.stat().st_size > 1000
+    ax2 = plots.tornado(sens, "delta_v", swing={"vehicles.0.speed": "1 mph"}).axes[0]
+    [up, down] = sorted(_bars(ax2), key=lambda b: b.get_width())
+    assert up.get_width() == pytest.approx(-down.get_width())
+    assert abs(up.get_width()) == pytest.approx(abs(d[sens.params.index("vehicles.0.speed")])
+                                                * 5280 / 3600, rel=1e-12)

@@ -7,6 +7,9 @@
 - :func:`mer`, :func:`mer_for`: Momentum–Energy–Restitution ΔVs, to set beside a simulation;
 - :func:`monte_carlo`: percentiles of ΔV, peak acceleration, pulse and peak force over sampled
   scene parameters;
+- :func:`sensitivity`: derivatives (and elasticities) of ΔV, peak acceleration and pulse duration
+  with respect to masses, speeds, stiffness and restitution, by forward-mode autodiff through the
+  diffrax solve (events included) or by finite differences;
 - :func:`read_measured`, :func:`measured_curve`, :func:`series_measured`: measured force–deflection
   data as loading curves; :func:`cfc_filter`: the SAE J211 / ISO 6487 CFC filter.
 """
@@ -17,6 +20,7 @@ from .filters import CFC_CLASSES, cfc_coefficients, cfc_filter, cfc_response, j2
 from .measured import (curve_table, envelope, measured_curve, read_columns, read_measured,
                        series_measured)
 from .mer import MER, format_mer, mer, mer_for
+from .sensitivity import Sensitivity, default_params, sensitivity
 from .uncertainty import MonteCarlo, monte_carlo, sample
 
 __all__ = [
@@ -24,6 +28,7 @@ __all__ = [
     "calibrate_force_scale", "energy_force_scale", "Calibration",
     "mer", "mer_for", "format_mer", "MER",
     "monte_carlo", "sample", "MonteCarlo",
+    "sensitivity", "Sensitivity", "default_params",
     "read_measured", "read_columns", "measured_curve", "series_measured", "curve_table", "envelope",
     "cfc_filter", "cfc_coefficients", "cfc_response", "j211_corridor", "CFC_CLASSES",
 ]

@@ -1,9 +1,12 @@
-"""``lsc bound`` and ``lsc mc``: subcommands for :mod:`lsc.cli` (added to its ``COMMANDS``).
+"""``lsc bound``, ``lsc mc`` and ``lsc sensitivity``: subcommands for :mod:`lsc.cli` (added to its
+``COMMANDS``).
 
     lsc bound SCENE --failure-force "5000 lbf" [--contact K] [--speed-path P] [--step S]
               [--margin-steps N] [--method M] [--json FILE]
     lsc mc SCENE [--n N] [--seed S] [--uncertainty FILE] [--method M] [--percentiles 5,50,95]
            [--out DIR] [--no-plots] [--no-progress]
+    lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...] [--method diffrax|finite-difference]
+                    [--rtol R] [--backend B] [--plot FILE] [--plot-metric M] [--swing R] [--json FILE]
 
 Each is a pair ``add_<name>(subparsers)`` / ``cmd_<name>(args)`` (returns the exit status), as in
 :mod:`lsc.cli`; :class:`lsc.SceneError` and :class:`lsc.SimulationError` propagate to its
@@ -19,7 +22,8 @@ from pathlib import Path
 
 from ..errors import SceneError
 
-__all__ = ["add_bound", "cmd_bound", "add_mc", "cmd_mc", "COMMANDS", "load_with_uncertainty"]
+__all__ = ["add_bound", "cmd_bound", "add_mc", "cmd_mc", "add_sensitivity", "cmd_sensitivity",
+           "COMMANDS", "load_with_uncertainty"]
 
 
 def _number_or_quantity(text: str):
@@ -168,5 +172,70 @@ def cmd_mc(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- lsc sensitivity
+def _names(text: str) -> list[str]:
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def add_sensitivity(sub) -> None:
+    """Declare ``lsc sensitivity``."""
+    from ..scene import METHODS
+    from .sensitivity import DEFAULT_METRICS, METHODS as SMETHODS
+    p = sub.add_parser("sensitivity", help="derivatives of delta-V, peak acceleration and duration "
+                       "with respect to masses, speeds, stiffness and restitution",
+                       description="Sensitivities of the crash metrics to the scene's parameters, "
+                       "by forward-mode autodiff through the diffrax solve (events included) or by "
+                       "finite differences: each parameter's value, the derivative in the scene's "
+                       "units and the elasticity (percent per percent), largest effect first.")
+    p.add_argument("scene", metavar="SCENE", help="a scene TOML file or a packaged scene name")
+    p.add_argument("--params", type=_names, metavar="P,P,...",
+                   help="dotted parameter paths (default: each vehicle's weight or mass and speed, "
+                        "each contact's stiffness or force scale and restitution)")
+    p.add_argument("--metrics", type=_names, default=list(DEFAULT_METRICS), metavar="M,M,...",
+                   help="metrics (default " + ",".join(DEFAULT_METRICS) + ")")
+    p.add_argument("--method", choices=SMETHODS, default="diffrax",
+                   help="diffrax (autodiff, default) or finite-difference")
+    p.add_argument("--rtol", type=float, default=1e-12, help="solver tolerance (default 1e-12)")
+    p.add_argument("--backend", choices=METHODS, default="auto",
+                   help="finite differences: the backend of each solve (default auto)")
+    p.add_argument("--plot", metavar="FILE", help="write a tornado chart (PNG, SVG, PDF)")
+    p.add_argument("--plot-metric", default=None, metavar="M",
+                   help="the metric of the tornado chart (default: the first of --metrics; the "
+                        "front vehicle of a per-vehicle one)")
+    p.add_argument("--swing", type=float, default=None, metavar="R",
+                   help="tornado bars as the metric with each parameter moved by +-R of its value "
+                        "(default: elasticities)")
+    p.add_argument("--json", metavar="FILE", help="also write the sensitivities as JSON")
+    p.set_defaults(func=cmd_sensitivity)
+
+
+def cmd_sensitivity(args) -> int:
+    """Run ``lsc sensitivity``: print the table (and write a tornado chart / JSON)."""
+    from ..cli import resolve_scene
+    from .sensitivity import sensitivity
+    scene = resolve_scene(args.scene)
+    s = sensitivity(scene, args.params, metrics=args.metrics, method=args.method, rtol=args.rtol,
+                    backend=args.backend)
+    print(s.summary())
+    metric = args.plot_metric or args.metrics[0]
+    if args.plot and metric not in s.derivatives:
+        raise SceneError("plot-metric", f"{metric!r} is not among --metrics "
+                                        f"({', '.join(s.derivatives)})")
+    try:
+        if args.plot:
+            from ..plots import tornado
+            tornado(s, metric, swing=args.swing, file=args.plot)
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as fh:
+                json.dump(s.to_dict(), fh, indent=2)
+                fh.write("\n")
+    except OSError as e:
+        print(f"lsc: error: cannot write {e.filename}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    if args.plot:
+        print(f"\ntornado chart written to {args.plot}")
+    return 0
+
+
 #: The subcommands this module adds to ``lsc.cli.COMMANDS``.
-COMMANDS = [add_bound, add_mc]
+COMMANDS = [add_bound, add_mc, add_sensitivity]
