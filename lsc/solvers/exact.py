@@ -267,9 +267,11 @@ def _level_now(a, b, c, vtol):
     return (c == 0) & (b <= 0) & ((a <= 0) | (b < -vtol))
 
 
-def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
+def _next_event(xp, g: _Seg, da, lo, wl, hi, vm, vtol, fail=None):
     """Time ``τ`` from the segment start to the earliest armed event and which: 0, ``D`` falls
-    to ``lo``; 1, ``D`` rises to ``hi``; 2, the closing rate falls through 0 while ``vm`` (the
+    to ``lo``, which lies ``wl`` below the affine piece's anchor ``da`` (its level is taken
+    relative to the anchor, ``(D0 - da) + wl``: a near-plastic rebound is narrower than the
+    rounding of ``lo`` itself); 1, ``D`` rises to ``hi``; 2, the closing rate falls through 0 while ``vm`` (the
     law's three); 3, the force ``F = fa + s (D - da)`` rises through ``fail = (fa, s, da, F_f)``,
     the failure force [force] (``None``: not armed). ``τ = inf`` if none; ties go to the lower
     index. ``vtol`` [velocity]: closing rates below it are rounding (``1e-12`` of the scene's
@@ -277,7 +279,7 @@ def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
     D0, W0, A0, kappa = g.D0, g.W0, g.A0, g.kappa
     w = xp.sqrt(xp.abs(kappa))
     ws = xp.where(w > 0, w, 1.0)
-    dl = D0 - lo
+    dl = (D0 - da) + wl
     a = 0.25 * kappa * dl + 0.5 * A0
     k0, y0, x0, u0 = _crossing(xp, a, W0, dl, kappa, ws, _level_now(a, W0, dl, vtol), A0)
     dh = hi - D0
@@ -537,6 +539,8 @@ class _ScalarTransitions:
         self._model = model
         self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
                     for law in model.laws]
+        for pp in self._pp:   # relative to the anchor, any rebound width is resolved
+            pp["wres"] = 0.0
 
     def __getattr__(self, name):
         return getattr(self._model, name)
@@ -606,7 +610,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                    hold[0], hold[1])
         armed = [ff for j, _, ff in failure if not disc[j]["failed"]]
         fail = (st["fa"], st["s"], st["da"], armed[0]) if armed else None
-        tau, which = _next_event(_PY, g, st["lo"], st["hi"], st["vm"], vtol, fail)
+        tau, which = _next_event(_PY, g, st["da"], st["lo"], st["wl"], st["hi"], st["vm"], vtol,
+                                 fail)
         event = ev_index[which] if tau < math.inf else None
         stopped = None
         for j, i, _, limit, ev_stop, ev_break in brakes:
@@ -868,7 +873,7 @@ def _batch_law(P: dict):
     le[0] = 0.0
     np.cumsum(0.5 * (fT[1:] + fT[:-1]) * dd, axis=0, out=le[1:n])
     le[n] = le[n - 1]
-    p = {"ld": _Rows(ld), "lf": _Rows(lf), "ls": _Rows(ls), "le": _Rows(le)}
+    p = {"ld": _Rows(ld), "lf": _Rows(lf), "ls": _Rows(ls), "le": _Rows(le), "wres": 0.0}
     curve = Curve(d[0], f[0], None if end is None else end[0])
     if "e" in P:
         rule = Restitution(float(P["e"][0]))
@@ -965,7 +970,8 @@ def solve_batch(params: dict, *, max_events: int = 10_000) -> dict:
             fail = None
             if P["failure_force"] is not None:  # armed until it has fired (then inf)
                 fail = (st["fa"], st["s"], st["da"], w["ff"])
-            tau, which = _next_event(_NPR, g, st["lo"], st["hi"], st["vm"], 1e-12 * w["vscale"],
+            tau, which = _next_event(_NPR, g, st["da"], st["lo"], st["wl"], st["hi"], st["vm"],
+                                     1e-12 * w["vscale"],
                                      fail)
             tau, which = np.broadcast_to(tau, (n_live,)), np.broadcast_to(which, (n_live,))
             bad = ~np.isfinite(tau)
