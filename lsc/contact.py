@@ -168,7 +168,9 @@ class HysteresisLaw:
         Fb = st["fscale"] * uf[u + 1]
         wl = st["dscale"] * (ud[u + 1] - ud[u])
         out = dict(st)
-        width = xp.where(wl > 0, wl, 1.0)
+        # (a width that would make the slope overflow belongs to an instant separation, and
+        # is only evaluated here, unused: see _max_deformation)
+        width = xp.where(wl > 1e-300 * abs(Fb - Fa), wl, 1.0)
         out.update(mode=xp.asarray(MODE_UNLOADING), seg=u, da=Db, fa=Fb, s=(Fb - Fa) / width,
                    lo=Da, wl=wl, hi=Db, vm=xp.asarray(0.0))
         return out
@@ -213,7 +215,8 @@ class HysteresisLaw:
         new["status"] = status
         # No rebound (e = 0, no force at the common velocity, or a rebound narrower than the
         # backend resolves, wres D_max; see REBOUND_RESOLUTION): separate at once.
-        instant = (dscale <= p["wres"] * abs(D)) | (F <= 0)
+        # (and a line so narrow that its slope F/dscale would overflow: e² below 1e-300)
+        instant = (dscale <= p["wres"] * abs(D)) | (F <= 0) | (dscale <= 1e-300 * F)
         new_open = dict(new)
         new_open.update(dperm=D, dscale=xp.asarray(0.0), er=xp.asarray(0.0))
         return _sel(instant, self._open(new_open, xp),

@@ -157,13 +157,14 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
     dperm = float(met["permanent_deformation"])
     dmax = float(met["max_deformation"])
     # (e > 0 whose square underflows, below 1e-154: a rebound narrower than any float, as e = 0)
-    ku = k / (e * e) if e * e > 0 else np.inf
+    with np.errstate(over="ignore"):
+        ku = k / (e * e) if e * e > 0 else np.inf
     t_rel = t - t_c
     T1 = np.pi / (2 * w)
     load = (t_rel >= 0) & (t_rel <= T1)
     unl = (t_rel > T1) & (t_rel < T1 * (1 + e))
     F = np.where(load, k * np.maximum(D, 0), 0.0)
-    if e * e > 0:
+    if np.isfinite(ku):
         F = np.where(unl, ku * (D - dperm), F)
     x1 = vcm * t + m2 / M * (D + gap)
     x2 = vcm * t - m1 / M * (D + gap)

@@ -178,17 +178,17 @@ def straight_restitution(scene) -> float | None:
 
 
 def rebound_floor(scene) -> float:
-    """The float64 floor of a backend that integrates vehicle *positions* on a near-plastic
-    rebound (relative to the closing speed). The rebound is ``w = e² D_max`` wide, and such a
-    backend holds a deformation only to ``ε x`` (``x``, the positions, ~ ``D_max`` times the
-    speed scale over the closing speed): the rebound speed ``e v0`` is then off by
-    ``ε (x/D_max) / e`` of ``v0``, or, below ``w = 4 ε D_max`` where the law drops the rebound
-    (:data:`lsc.contact.REBOUND_RESOLUTION`), by ``e``. Measured worst: 4e-8 at ``e = 1e-7``
-    (DOP853, rtol 1e-13); 64 ε/e bounds it with a margin of 3."""
+    """The float64 floor of a backend that integrates the motion (SciPy, diffrax) on a
+    near-plastic rebound, relative to the closing speed. The rebound is ``w = e² D_max`` wide and
+    such a backend holds a deformation to ``ε D_max`` at best (the SciPy backend integrates each
+    segment in its own frame for that; absolute positions would hold it only to their own
+    ulps): the rebound speed ``e v0`` is off by about ``ε / e`` of ``v0``, or, below
+    ``w = 4 ε D_max`` where the law drops the rebound (:data:`lsc.contact.REBOUND_RESOLUTION`),
+    by ``e``. ``64 ε / e`` bounds the measured errors with a margin of 10."""
     e = straight_restitution(scene)
     if not e:
         return 0.0
-    return min(e, 64 * EPS / e) * speed_scale(scene) / closing_scale(scene)
+    return min(e, 64 * EPS / e)
 
 
 def tolerance(r: lsc.Result) -> float:

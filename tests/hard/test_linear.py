@@ -87,3 +87,33 @@ def test_first_unloading_piece_starts_at_f_max_exactly():
     assert int(new["mode"]) == MODE_UNLOADING
     assert float(law.force(D, 0.0, new)) == float(new["fmax"])  # no jump at the switch
     assert float(new["wl"]) == float(new["dscale"])              # its width, unrounded
+
+
+# Regressions found by the properties above (SciPy backend), each at its default rtol:
+# - LSODA raised "f(a) and f(b) must have different signs" from solve_ivp's event root finder
+#   (bracketed by its interpolant, which differs from its step's state in the last bits);
+# - Radau and DOP853 stalled at their step limit on a rebound narrower than the ulps of the
+#   absolute positions (45 ft/s, closing 3e-4 ft/s): segments are now integrated in their own
+#   frame;
+# - RK45 located a plastic contact's common velocity on its quartic interpolant with the contact
+#   still closing at 1e-11 ft/s, separated, closed again, and repeated it to the event limit.
+REGRESSIONS = [
+    two_cars(1.0, 1.0, 21.01, 21.0, {"stiffness": 334932569.1847817}, {"restitution": 1e-6}),
+    two_cars(1.0, 61.270282513923, 45.58593108903668, 45.585620955669356,
+             {"stiffness": 12281158.427820902}, {"restitution": 1e-6}),
+    two_cars(2.154434690031884, 0.05203488855229637, 6.781649801517122, 0.0,
+             {"stiffness": 8695930.844728692}, {"restitution": 1.401298464324817e-45}),
+    two_cars(1.0, 57.70196493643035, 9.397692271076378, 0.0, {"stiffness": 215.57015490659813},
+             {"restitution": 2.696049516866054e-159}),
+]
+
+
+@pytest.mark.parametrize("scene", REGRESSIONS)
+@pytest.mark.parametrize("integrator", ["DOP853", "RK45", "LSODA", "Radau"])
+def test_scipy_regressions(scene, integrator):
+    ref = lsc.solve(scene, method="closed-form")
+    assert event_kinds(lsc.solve(scene, method="exact")) == event_kinds(ref)
+    r = lsc.solve(scene, method="scipy", integrator=integrator)
+    check_result(r)
+    check_agrees(r, ref)
+    assert event_kinds(r) == event_kinds(ref), r.events
