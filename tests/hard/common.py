@@ -217,10 +217,11 @@ def check_result(r: lsc.Result, *, external: bool = False) -> None:
 
 
 def check_agrees(r: lsc.Result, ref: lsc.Result, *, tol: float | None = None,
-                 contacts: bool = True) -> None:
+                 contacts: bool = True, dmax_tol: float | None = None) -> None:
     """``r`` agrees with the exact ``ref`` to ``r``'s tolerance: ΔV of every vehicle (relative
     to the closing speed), the energies (relative to the relative kinetic energy) and the max
-    deformation (relative to ref's)."""
+    deformation (relative to ref's; to ``dmax_tol`` where it is worse conditioned than the
+    velocities: on a separatrix, where an energy off by ``ε`` moves it by ``√ε``)."""
     tol = tolerance(r) if tol is None else tol
     w = closing_scale(ref.scene)
     dv = float(np.max(np.abs(r.delta_v - ref.delta_v))) / w
@@ -232,7 +233,7 @@ def check_agrees(r: lsc.Result, ref: lsc.Result, *, tol: float | None = None,
     de = float(np.max(np.abs(r.energy_absorbed - ref.energy_absorbed))) / ke0
     assert de <= 4 * tol, f"{r.method}: absorbed energy off by {de:.3g} (tolerance {4 * tol:.3g})"
     dd = np.abs(r.max_deformation - ref.max_deformation) / np.maximum(ref.max_deformation, 1e-300)
-    assert np.all(dd <= max(4 * tol, 1e-9)), \
+    assert np.all(dd <= (max(4 * tol, 1e-9) if dmax_tol is None else dmax_tol)), \
         f"{r.method}: max deformation {r.max_deformation} vs {ref.max_deformation} ({ref.method})"
 
 
