@@ -44,6 +44,17 @@ STATUS = {
 }
 
 
+#: The narrowest rebound, relative to ``D_max``, that a backend integrating vehicle *positions*
+#: resolves (law parameter ``wres``); a narrower one separates at once, its rebound dropped.
+#: Such a backend holds a deformation only to the ulps of the positions, so the force on an
+#: unloading line ``w`` wide and ``F_max/w`` steep is noise once ``w`` is a few ulps of ``D_max``:
+#: at 4 ulps (``e ≈ 3e-8`` on a linear branch) the rebound dropped and the rebound mis-resolved
+#: just above it both change a ΔV by a few 1e-8 of the closing speed, a float64 floor of those
+#: backends (docs/reliability.rst). The exact backend works relative to the piece's anchor
+#: (``(D - da) + wl``) and resolves any width: it sets ``wres = 0``.
+REBOUND_RESOLUTION = 4 * float(np.finfo(float).eps)
+
+
 def _sel(cond, a: dict, b: dict, xp) -> dict:
     """Field-wise ``where(cond, a, b)`` over two discrete states."""
     return {k: xp.where(cond, a[k], b[k]) for k in a}
@@ -96,6 +107,7 @@ class HysteresisLaw:
         self.params["uf"] = uf
         # Energy under the template (force 0 → 1 or F0), for the returned energy.
         self.params["ue"] = np.asarray(float(np.sum(0.5 * (uf[1:] + uf[:-1]) * np.diff(ud))))
+        self.params["wres"] = np.asarray(REBOUND_RESOLUTION)
 
     # ------------------------------------------------------------------ smooth pieces
     @staticmethod
@@ -106,7 +118,7 @@ class HysteresisLaw:
     @staticmethod
     def events(D, Ddot, st):
         """(lower bound reached going down, upper bound reached going up, closing speed to 0)."""
-        return (D - st["lo"], st["hi"] - D, st["vm"] * Ddot + (1.0 - st["vm"]))
+        return ((D - st["da"]) + st["wl"], st["hi"] - D, st["vm"] * Ddot + (1.0 - st["vm"]))
 
     @staticmethod
     def armed(st) -> tuple:
@@ -117,14 +129,15 @@ class HysteresisLaw:
     def _zero(self, xp) -> dict:
         z = xp.asarray(0.0)
         return {"mode": xp.asarray(MODE_OPEN), "seg": xp.asarray(0), "da": z, "fa": z, "s": z,
-                "lo": xp.asarray(-BIG), "hi": z, "vm": z, "dmax": z, "fmax": z, "dperm": z,
-                "ec": z, "dscale": z, "fscale": z, "er": z, "status": xp.asarray(0)}
+                "lo": xp.asarray(-BIG), "wl": xp.asarray(BIG), "hi": z, "vm": z, "dmax": z,
+                "fmax": z, "dperm": z, "ec": z, "dscale": z, "fscale": z, "er": z,
+                "status": xp.asarray(0)}
 
     def _loading(self, st: dict, seg, p: dict, xp) -> dict:
         """Loading on segment ``seg`` of the loading curve."""
         out = dict(st)
         out.update(mode=xp.asarray(MODE_LOADING), seg=seg, da=p["ld"][seg], fa=p["lf"][seg],
-                   s=p["ls"][seg], lo=xp.asarray(-BIG), hi=p["ld"][seg + 1],
+                   s=p["ls"][seg], lo=xp.asarray(-BIG), wl=xp.asarray(BIG), hi=p["ld"][seg + 1],
                    vm=xp.asarray(1.0))
         if not self.extends:
             ended = seg >= self.n_load - 1
@@ -138,16 +151,28 @@ class HysteresisLaw:
         return self._loading(st, seg, p, xp)
 
     def _unloading(self, st: dict, u, p: dict, xp) -> dict:
-        """Unloading (or reloading) on segment ``u`` of the mapped unloading template."""
+        """Unloading (or reloading) on segment ``u`` of the mapped unloading template.
+
+        The affine piece is anchored at its *top* ``(Db, Fb)`` (``(D_max, F_max)`` itself on
+        the first piece, where the motion enters it with the state that defined ``D_max``), and
+        its width ``wl = Db - Da`` is taken from the template, ``dscale (ud[u+1] - ud[u])``,
+        not from the two rounded absolute bounds: a near-plastic rebound is ``e² D_max`` wide,
+        a few thousand ulps of ``D_max`` at ``e = 1e-6``, and bounds rounded to ulps of
+        ``D_max`` would put its slope and its end (where the force is zero) off by a part in
+        1e4. Anchored at the top, the force at ``D_max`` is ``F_max`` exactly, and ``lo`` is
+        ``wl`` below the anchor for a backend that works relative to it (the exact one)."""
         ud, uf = p["ud"], p["uf"]
         Da = st["dmax"] + st["dscale"] * ud[u]
         Db = st["dmax"] + st["dscale"] * ud[u + 1]
         Fa = st["fscale"] * uf[u]
         Fb = st["fscale"] * uf[u + 1]
+        wl = st["dscale"] * (ud[u + 1] - ud[u])
         out = dict(st)
-        width = xp.where(Db != Da, Db - Da, 1.0)
-        out.update(mode=xp.asarray(MODE_UNLOADING), seg=u, da=Da, fa=Fa, s=(Fb - Fa) / width,
-                   lo=Da, hi=Db, vm=xp.asarray(0.0))
+        # (a width that would make the slope overflow belongs to an instant separation, and
+        # is only evaluated here, unused: see _max_deformation)
+        width = xp.where(wl > 1e-300 * abs(Fb - Fa), wl, 1.0)
+        out.update(mode=xp.asarray(MODE_UNLOADING), seg=u, da=Db, fa=Fb, s=(Fb - Fa) / width,
+                   lo=Da, wl=wl, hi=Db, vm=xp.asarray(0.0))
         return out
 
     def _open(self, st: dict, xp) -> dict:
@@ -155,7 +180,7 @@ class HysteresisLaw:
         out = dict(st)
         z = xp.asarray(0.0)
         out.update(mode=xp.asarray(MODE_OPEN), seg=xp.asarray(0), da=z, fa=z, s=z,
-                   lo=xp.asarray(-BIG), hi=st["dperm"], vm=z)
+                   lo=xp.asarray(-BIG), wl=xp.asarray(BIG), hi=st["dperm"], vm=z)
         return out
 
     # ------------------------------------------------------------------ transitions
@@ -188,10 +213,10 @@ class HysteresisLaw:
         if self.unload_kind != "restitution":
             status = xp.where(new["er"] > ec * (1 + 1e-12), 3, status)
         new["status"] = status
-        # No rebound (e = 0, a rebound narrower than rounding, or no force at the common
-        # velocity): separate at once. (An unloading line a few ulps wide would have a slope
-        # made of rounding errors; the energy it returns, e² E_c, is below rounding as well.)
-        instant = (dscale <= 8.9e-16 * abs(D)) | (F <= 0)
+        # No rebound (e = 0, no force at the common velocity, or a rebound narrower than the
+        # backend resolves, wres D_max; see REBOUND_RESOLUTION): separate at once.
+        # (and a line so narrow that its slope F/dscale would overflow: e² below 1e-300)
+        instant = (dscale <= p["wres"] * abs(D)) | (F <= 0) | (dscale <= 1e-300 * F)
         new_open = dict(new)
         new_open.update(dperm=D, dscale=xp.asarray(0.0), er=xp.asarray(0.0))
         return _sel(instant, self._open(new_open, xp),

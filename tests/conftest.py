@@ -11,6 +11,11 @@ from hypothesis import HealthCheck, settings
 # per-example deadline and no too-slow health check; tests that need others say so themselves.
 settings.register_profile("lsc", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("lsc")
+# While developing a property: `pytest --hypothesis-profile=dev` reports every distinct failure
+# at once, unshrunk (shrinking a slow case can take many minutes).
+settings.register_profile("dev", deadline=None, suppress_health_check=list(HealthCheck),
+                          report_multiple_bugs=True,
+                          phases=["explicit", "reuse", "generate", "target"])
 
 
 def pytest_addoption(parser):

@@ -103,11 +103,16 @@ def metrics(m1, m2, v1, v2, k, e, gap=0.0, g=1.0, failure_force=np.nan) -> dict:
     }
 
 
-def relative_motion(t, v0, w, e, gap):
-    """Deformation ``D`` and closing rate ``Ddot`` at times ``t`` (exact, piecewise)."""
+def relative_motion(t, v0, w, e, gap, k=None):
+    """Deformation ``D`` and closing rate ``Ddot`` at times ``t`` (exact, piecewise), and with
+    the loading stiffness ``k`` the contact force ``F`` as well.
+
+    The rebound is written from ``(D_max, F_max)``, in its phase ``θ = (π/2) τ/T_2`` (``T_2 = e
+    T_1`` its duration): ``D = D_max - e² D_max (1 - cos θ)``, ``Ddot = -e v0 sin θ``,
+    ``F = F_max cos θ``, with no ``D_perm`` rounded to the ulps of ``D_max`` and no ``ω/e``
+    (which overflows for a subnormal ``e``)."""
     t = np.asarray(t, float)
     dmax = v0 / w
-    dperm = dmax * (1 - e**2)
     t_c = gap / v0
     T1 = np.pi / (2 * w)
     T2 = e * T1
@@ -117,16 +122,19 @@ def relative_motion(t, v0, w, e, gap):
     comp = (tau >= 0) & (tau <= T1)
     D = np.where(comp, dmax * np.sin(w * np.clip(tau, 0, T1)), D)
     Dd = np.where(comp, v0 * np.cos(w * np.clip(tau, 0, T1)), Dd)
-    if e > 0:
-        wu = w / e
-        tau2 = np.clip(tau - T1, 0, T2)
-        unl = (tau > T1) & (tau <= T1 + T2)
-        D = np.where(unl, dperm + (dmax - dperm) * np.cos(wu * tau2), D)
-        Dd = np.where(unl, -(dmax - dperm) * wu * np.sin(wu * tau2), Dd)
+    F = np.where(comp, 0.0 if k is None else k * np.maximum(D, 0), 0.0)
+    unl = (tau > T1) & (tau <= T1 + T2)
+    if T2 > 0:
+        th = 0.5 * np.pi * np.clip(tau - T1, 0, T2) / T2
+        half = np.sin(0.5 * th)
+        D = np.where(unl, dmax - (e * e * dmax) * (2.0 * half * half), D)
+        Dd = np.where(unl, -e * v0 * np.sin(th), Dd)
+        if k is not None:
+            F = np.where(unl, k * dmax * np.cos(th), F)
     post = tau > T1 + T2
-    D = np.where(post, dperm - e * v0 * (tau - T1 - T2), D)
+    D = np.where(post, dmax * (1 - e**2) - e * v0 * (tau - T1 - T2), D)
     Dd = np.where(post, -e * v0, Dd)
-    return D, Dd
+    return (D, Dd) if k is None else (D, Dd, F)
 
 
 def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
@@ -153,18 +161,9 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
         t_stop = float(t_end)
     knots = sorted({0.0, t_c, t_m, t_s, t_stop})
     t = np.union1d(np.linspace(0.0, t_stop, n_samples + 1), knots)
-    D, Dd = relative_motion(t, v0, w, e, gap)
+    D, Dd, F = relative_motion(t, v0, w, e, gap, k)
     dperm = float(met["permanent_deformation"])
     dmax = float(met["max_deformation"])
-    # (e > 0 whose square underflows, below 1e-154: a rebound narrower than any float, as e = 0)
-    ku = k / (e * e) if e * e > 0 else np.inf
-    t_rel = t - t_c
-    T1 = np.pi / (2 * w)
-    load = (t_rel >= 0) & (t_rel <= T1)
-    unl = (t_rel > T1) & (t_rel < T1 * (1 + e))
-    F = np.where(load, k * np.maximum(D, 0), 0.0)
-    if e * e > 0:
-        F = np.where(unl, ku * (D - dperm), F)
     x1 = vcm * t + m2 / M * (D + gap)
     x2 = vcm * t - m1 / M * (D + gap)
     x = np.stack([x1, x2], axis=1)

@@ -76,6 +76,7 @@ BATCH_STATUS = {
 EVENT_LIMIT, NO_EVENT = 10, 11
 
 _ARMED = 1e299        # bounds beyond this are disarmed (as in HybridModel.active_events)
+_EPS = 2.220446049250313e-16   # float64 machine epsilon
 # A discriminant within this fraction of its terms is a double root: a touch, not a crossing
 # (the excursion past the surface, disc/(4|a|), is below 1e-12 of the motion's length scale).
 # Rounding makes exact tangencies look like shallow crossings: with a friction force and a
@@ -95,7 +96,8 @@ class _PyMath:
     inf = math.inf
     sqrt, sin, cos = staticmethod(math.sqrt), staticmethod(math.sin), staticmethod(math.cos)
     sinh, cosh = staticmethod(math.sinh), staticmethod(math.cosh)
-    arctan2, log1p = staticmethod(math.atan2), staticmethod(math.log1p)
+    arctan2, log1p, log = staticmethod(math.atan2), staticmethod(math.log1p), staticmethod(math.log)
+    exp = staticmethod(math.exp)
     copysign, abs = staticmethod(math.copysign), staticmethod(abs)
     maximum, minimum = staticmethod(max), staticmethod(min)
 
@@ -192,7 +194,10 @@ def _basis(xp, tau, kappa):
             return tau, 0.5 * tau * tau
         w = math.sqrt(abs(kappa))
         h = 0.5 * w * tau
-        s, c = (xp.sin(h), xp.cos(h)) if kappa > 0 else (xp.sinh(h), xp.cosh(h))
+        try:
+            s, c = (xp.sin(h), xp.cos(h)) if kappa > 0 else (xp.sinh(h), xp.cosh(h))
+        except OverflowError:   # (exponential growth past float64: non-finite, and reported)
+            return math.inf, math.inf
         return 2.0 * s * c / w, 2.0 * (s / w) * (s / w)
     # members (arrays): each function only where its branch applies
     pos, neg = kappa > 0, kappa < 0
@@ -206,14 +211,32 @@ def _basis(xp, tau, kappa):
     return xp.where(curved, 2.0 * s * c / ws, tau), xp.where(curved, 2.0 * sw * sw, 0.5 * tau * tau)
 
 
-def _state(xp, tau, g: _Seg):
+def _sep_increments(xp, tau, g: _Seg):
+    """``ΔD, ΔW`` a time ``τ`` into a separatrix segment (κ = -λ² < 0, see :func:`_next_event`):
+    ``D - D_eq = β e^{-λτ}`` with ``β = D0 - D_eq = A0/λ²`` and the growing mode taken as the
+    zero it is to rounding (the growing basis, ``sinh λτ`` times a rounding error, is evaluated
+    nowhere: at ``λτ = 35`` it would be off by ``D`` itself)."""
+    lam2 = xp.where(g.kappa < 0, -g.kappa, 1.0)
+    lam = xp.sqrt(lam2)
+    beta = g.A0 / lam2
+    decay = xp.exp(-lam * tau)
+    return beta * (decay - 1.0), -lam * beta * decay - g.W0
+
+
+def _state(xp, tau, g: _Seg, sep=False):
     """Vehicle positions and velocities ``(x1, x2, v1, v2)`` a time ``tau`` into segment ``g``,
     as increments on its start (exact at ``tau = 0``): the centre of mass moves uniformly
     (accelerated by ``Acm``), the deformation by ``ΔD = W0 S + A0 C`` and the closing rate by
     ``ΔW = A0 S - κ W0 C`` (``S' - 1 = -κ C``), shared in the ratio of the masses."""
-    S, C = _basis(xp, tau, g.kappa)
-    dD = g.W0 * S + g.A0 * C
-    dW = g.A0 * S - g.kappa * g.W0 * C
+    if sep is True:
+        dD, dW = _sep_increments(xp, tau, g)
+    else:
+        S, C = _basis(xp, tau, g.kappa)
+        dD = g.W0 * S + g.A0 * C
+        dW = g.A0 * S - g.kappa * g.W0 * C
+        if sep is not False:   # members (arrays): the separatrix ones in the stable form
+            sD, sW = _sep_increments(xp, xp.where(sep, tau, 0.0), g)
+            dD, dW = xp.where(sep, sD, dD), xp.where(sep, sW, dW)
     dX = g.V0 * tau + 0.5 * g.Acm * tau * tau
     dV = g.Acm * tau
     return (g.x1 + dX + g.r2 * dD, g.x2 + dX - g.r1 * dD,
@@ -267,9 +290,11 @@ def _level_now(a, b, c, vtol):
     return (c == 0) & (b <= 0) & ((a <= 0) | (b < -vtol))
 
 
-def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
+def _next_event(xp, g: _Seg, da, lo, wl, hi, vm, vtol, fail=None):
     """Time ``τ`` from the segment start to the earliest armed event and which: 0, ``D`` falls
-    to ``lo``; 1, ``D`` rises to ``hi``; 2, the closing rate falls through 0 while ``vm`` (the
+    to ``lo``, which lies ``wl`` below the affine piece's anchor ``da`` (its level is taken
+    relative to the anchor, ``(D0 - da) + wl``: a near-plastic rebound is narrower than the
+    rounding of ``lo`` itself); 1, ``D`` rises to ``hi``; 2, the closing rate falls through 0 while ``vm`` (the
     law's three); 3, the force ``F = fa + s (D - da)`` rises through ``fail = (fa, s, da, F_f)``,
     the failure force [force] (``None``: not armed). ``τ = inf`` if none; ties go to the lower
     index. ``vtol`` [velocity]: closing rates below it are rounding (``1e-12`` of the scene's
@@ -277,14 +302,15 @@ def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
     D0, W0, A0, kappa = g.D0, g.W0, g.A0, g.kappa
     w = xp.sqrt(xp.abs(kappa))
     ws = xp.where(w > 0, w, 1.0)
-    dl = D0 - lo
+    dl = (D0 - da) + wl
     a = 0.25 * kappa * dl + 0.5 * A0
     k0, y0, x0, u0 = _crossing(xp, a, W0, dl, kappa, ws, _level_now(a, W0, dl, vtol), A0)
     dh = hi - D0
     a = 0.25 * kappa * dh - 0.5 * A0
     k1, y1, x1, u1 = _crossing(xp, a, -W0, dh, kappa, ws, _level_now(a, -W0, dh, vtol), A0)
-    # the common velocity: at once if the closing rate is not positive and falls
-    k2, y2, x2, u2 = _crossing(xp, -0.25 * kappa * W0, A0, W0, kappa, ws, (W0 <= 0) & (A0 < 0))
+    # the common velocity: at once if the closing rate is not positive and falls (or stays:
+    # at rest with no force, on an equilibrium)
+    k2, y2, x2, u2 = _crossing(xp, -0.25 * kappa * W0, A0, W0, kappa, ws, (W0 <= 0) & (A0 <= 0))
     k0 = xp.where(lo > -_ARMED, k0, xp.inf)
     k1 = xp.where(hi < _ARMED, k1, xp.inf)
     k2 = xp.where(vm != 0, k2, xp.inf)
@@ -301,7 +327,19 @@ def _next_event(xp, g: _Seg, lo, hi, vm, vtol, fail=None):
         which = xp.where(first3, 3, which)
         key = xp.where(first3, k3, key)
         y, x, u = xp.where(first3, y3, y), xp.where(first3, x3, x), xp.where(first3, u3, u)
-    return _to_time(xp, kappa, ws, key, y, x, u), which
+    tau = _to_time(xp, kappa, ws, key, y, x, u)
+    # The separatrix. Loading on a falling piece (κ = -λ² < 0) with no event at all is the
+    # motion creeping up to the equilibrium (the force falls to the level where the relative
+    # acceleration vanishes: zero, on a table falling to zero force, at the kinetic energy that
+    # brings the vehicles exactly there): D - D_eq = α e^{λτ} + β e^{-λτ} with α = 0 (to
+    # rounding), W → 0, reached only as τ → ∞. The common velocity is taken where the rest
+    # β e^{-λτ} is below the rounding of D, τ* = ln(|β|/δ)/λ (tens of 1/λ), not never.
+    sep = (tau == xp.inf) & (vm != 0) & (kappa < 0)
+    lam2 = xp.where(kappa < 0, -kappa, 1.0)
+    beta = 0.5 * (A0 / lam2 - W0 / ws)
+    delta = 4.0 * _EPS * (xp.abs(D0) + xp.abs(A0) / lam2) + 1e-300
+    t_sep = xp.log(xp.maximum(xp.abs(beta) / delta, 1.0)) / ws
+    return xp.where(sep, t_sep, tau), xp.where(sep, 2, which), sep
 
 
 def _force_rises(xp, g: _Seg, fa, s, da, level, ws, vtol):
@@ -537,6 +575,8 @@ class _ScalarTransitions:
         self._model = model
         self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
                     for law in model.laws]
+        for pp in self._pp:   # relative to the anchor, any rebound width is resolved
+            pp["wres"] = 0.0
 
     def __getattr__(self, name):
         return getattr(self._model, name)
@@ -606,7 +646,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                    hold[0], hold[1])
         armed = [ff for j, _, ff in failure if not disc[j]["failed"]]
         fail = (st["fa"], st["s"], st["da"], armed[0]) if armed else None
-        tau, which = _next_event(_PY, g, st["lo"], st["hi"], st["vm"], vtol, fail)
+        tau, which, sep = _next_event(_PY, g, st["da"], st["lo"], st["wl"], st["hi"], st["vm"],
+                                      vtol, fail)
         event = ev_index[which] if tau < math.inf else None
         stopped = None
         for j, i, _, limit, ev_stop, ev_break in brakes:
@@ -620,7 +661,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                 tau, event, stopped = cand, ev, (i if ev == ev_stop else None)
         if not t0 + tau <= horizon:
             tau, event, stopped = horizon - t0, None, None
-        end = list(_state(_PY, tau, g))
+        sep = bool(sep)
+        end = list(_state(_PY, tau, g, sep))
         if stopped is not None:
             end[2 + stopped] = 0.0   # the stop, exactly (held at zero while stuck)
         if not brakes:
@@ -639,10 +681,10 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                     if abs(a) > abs(peak_a[i]):
                         peak_a[i] = a
 
-        def dense(tt, g=g, t0=t0, t1=t0 + tau, stopped=stopped):
+        def dense(tt, g=g, t0=t0, t1=t0 + tau, stopped=stopped, sep=sep):
             tt = np.asarray(tt, float)
             with np.errstate(all="ignore"):
-                out = np.array(_state(np, tt - t0, g))
+                out = np.array(_state(np, tt - t0, g, sep))
             if stopped is not None:  # at rest from the stop on, as the state is
                 out[2 + stopped] = np.where(tt >= t1, 0.0, out[2 + stopped])
             return out
@@ -868,7 +910,7 @@ def _batch_law(P: dict):
     le[0] = 0.0
     np.cumsum(0.5 * (fT[1:] + fT[:-1]) * dd, axis=0, out=le[1:n])
     le[n] = le[n - 1]
-    p = {"ld": _Rows(ld), "lf": _Rows(lf), "ls": _Rows(ls), "le": _Rows(le)}
+    p = {"ld": _Rows(ld), "lf": _Rows(lf), "ls": _Rows(ls), "le": _Rows(le), "wres": 0.0}
     curve = Curve(d[0], f[0], None if end is None else end[0])
     if "e" in P:
         rule = Restitution(float(P["e"][0]))
@@ -965,12 +1007,13 @@ def solve_batch(params: dict, *, max_events: int = 10_000) -> dict:
             fail = None
             if P["failure_force"] is not None:  # armed until it has fired (then inf)
                 fail = (st["fa"], st["s"], st["da"], w["ff"])
-            tau, which = _next_event(_NPR, g, st["lo"], st["hi"], st["vm"], 1e-12 * w["vscale"],
-                                     fail)
+            tau, which, sep = _next_event(_NPR, g, st["da"], st["lo"], st["wl"], st["hi"],
+                                          st["vm"], 1e-12 * w["vscale"], fail)
             tau, which = np.broadcast_to(tau, (n_live,)), np.broadcast_to(which, (n_live,))
             bad = ~np.isfinite(tau)
             tau = np.where(bad, 0.0, tau)
-            w["x1"], w["x2"], w["v1"], w["v2"] = _state(_NPR, tau, g)
+            w["x1"], w["x2"], w["v1"], w["v2"] = _state(_NPR, tau, g,
+                                                        np.broadcast_to(sep, (n_live,)))
             w["t"] = w["t"] + tau
             bad |= ~np.isfinite(w["x1"] + w["x2"] + w["v1"] + w["v2"])
             D, W = w["x1"] - w["x2"] - w["gap"], w["v1"] - w["v2"]

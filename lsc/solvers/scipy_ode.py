@@ -1,10 +1,17 @@
-"""SciPy backend: the hybrid ODE on ``scipy.integrate.solve_ivp`` with terminal events.
+"""SciPy backend: the hybrid ODE on SciPy's integrators (``scipy.integrate.RK45``, ``DOP853``,
+``LSODA``, ...), stepped here with the armed events of each segment.
 
-Each segment (frozen discrete state) is one ``solve_ivp`` call with the armed events of that
-state, all terminal and all crossing zero downward; SciPy locates the earliest on its dense output
-(Brent's method to a few ulps in time). Because every event function is zero on its surface and
-only a *downward* crossing counts, a new segment that starts on the surface it just crossed moves
-away from it and does not fire again (the restart trap).
+Each segment (frozen discrete state) is one run of a SciPy ``OdeSolver``, stepped by this module
+as ``solve_ivp`` would step it, with the armed events of that state, all terminal and all
+crossing zero downward. An event fires where its function goes from ``>= 0`` at one step end to
+``<= 0`` at the next (evaluated on the solver's own states there); its time is located on the
+step's dense output by Brent's method (to a few ulps in time), bracketed by those two step-end
+values rather than by the interpolant's: ``solve_ivp`` brackets with the interpolant, which for
+LSODA can differ from the step's own state in the last bits, and then fails ("f(a) and f(b) must
+have different signs") on an event that is within rounding of zero at a step end. Because every
+event function is zero on its surface and only a *downward* crossing counts, a new segment that
+starts on the surface it just crossed moves away from it and does not fire again (the restart
+trap).
 
 No step is longer than ``MAX_ANGLE / ω`` for the highest natural frequency ``ω`` of the frozen
 contacts (:meth:`HybridModel.natural_frequency`): over longer steps of an oscillation the embedded
@@ -20,7 +27,7 @@ import time
 
 import numpy as np
 import scipy.integrate
-from scipy.integrate import solve_ivp
+from scipy.integrate import OdeSolution
 from scipy.optimize import brentq
 
 from ..contact import HysteresisLaw
@@ -35,24 +42,60 @@ INTEGRATORS = ("RK45", "DOP853", "LSODA", "Radau", "BDF", "RK23")
 MAX_ANGLE = 0.5
 
 
-class _StepLimit(Exception):
-    """Raised inside ``solve_ivp`` when a segment has taken ``max_steps`` steps."""
+class _Frame:
+    """The coordinates one segment is integrated in: each vehicle's position from where it was
+    at the segment start ``t0``, less the motion of the centre of mass ``V (t - t0)``, and
+    velocities less ``V``; contact ``k``'s gap becomes ``-D0_k``, so that its deformation is
+    ``D0_k + (u_k - u_{k+1})``. With brakes, which need each vehicle's own velocity (and a held
+    vehicle must stay exactly where it is), the frame does not move (``V = 0``).
+
+    Absolute positions hold a deformation only to their own ulps: at 45 ft/s with a closing speed
+    of 3e-4 ft/s a whole rebound of ``e = 1e-6`` (``1e-12 D_max`` wide) was below them, its
+    force was noise and DOP853 stalled at its step limit. In this frame the deformation is
+    resolved to the ulps of ``D`` itself (and the law's :data:`~lsc.contact.REBOUND_RESOLUTION`
+    is the only floor left), whatever the speeds."""
+
+    def __init__(self, model, p, t0, y_abs, m, N):
+        self.t0, self.N = t0, N
+        self.x0 = y_abs[:N].copy()
+        self.V = 0.0 if model.brakes else float(m @ y_abs[N:2 * N] / m.sum())
+        self.p = dict(p, gap=-(self.x0[:-1] - self.x0[1:] - np.asarray(p["gap"], float)))
+        u0 = y_abs.copy()
+        u0[:N] = 0.0
+        u0[N:2 * N] -= self.V
+        self.u0 = u0
+
+    @staticmethod
+    def to_model(u):
+        """The state the model is evaluated on: the frame's own (the model uses positions only
+        through deformations, and velocities, without brakes, only through closing rates)."""
+        return u
+
+    def to_abs(self, t, u):
+        """Absolute state(s) ``y`` at time(s) ``t`` from frame states ``u`` ((n,) or (n, k))."""
+        y = np.array(u, float)
+        N, t = self.N, np.asarray(t, float)
+        x0 = self.x0 if y.ndim == 1 else self.x0[:, None]
+        y[:N] += x0 + self.V * (t - self.t0)
+        y[N:2 * N] += self.V
+        return y
+
+    def dense(self, sol):
+        """The absolute dense output from the frame's."""
+        return lambda tt: self.to_abs(tt, sol(tt))
 
 
-def _counted(integrator: str, max_steps: int):
-    """The SciPy solver class of ``integrator``, stopping with :class:`_StepLimit` at its
-    ``max_steps``-th step."""
-    base = getattr(scipy.integrate, integrator)
+def _max_step(model, disc) -> float:
+    """The longest step in discrete state ``disc`` [s]: ``MAX_ANGLE / ω`` (no limit while no
+    contact is loaded)."""
+    w = model.natural_frequency(disc)
+    return MAX_ANGLE / w if w > 0 else np.inf
 
-    class Counted(base):
-        def step(self):
-            self.lsc_steps = getattr(self, "lsc_steps", 0) + 1
-            if self.lsc_steps > max_steps:
-                raise _StepLimit(self.t)
-            return super().step()
 
-    Counted.__name__ = integrator
-    return Counted
+def _other(integrator: str) -> str:
+    """Integrators to suggest instead of ``integrator`` when it cannot finish a segment."""
+    others = [i for i in ("LSODA", "Radau", "DOP853") if i != integrator][:2]
+    return " or ".join(f"integrator {i!r}" for i in others)
 
 
 def _atol(model, rtol: float, atol):
@@ -124,20 +167,26 @@ def _restart(model, disc, p, t0, y0, active, scale, fired):
     return shift, None
 
 
-def _missed(gval, sol, active, best, tb, yb):
-    """An armed event that crossed zero and back inside one step is invisible to SciPy's sign
-    test at step ends (e.g. a table breakpoint just below the max deformation, crossed on the
-    way up and down within the step that holds the common velocity). Every armed event is
-    checked at the end of the segment: one that is negative there crossed earlier, and its first
-    crossing is located on the dense output (Brent) and taken if it comes first."""
+def _missed(gval, sol, active, best, tb, yb, tol):
+    """An armed event that crossed zero and back inside one step is invisible to the sign test
+    at step ends (e.g. a table breakpoint just below the max deformation, crossed on the way up
+    and down within the step that holds the common velocity). Every armed event is checked at
+    the end of the segment: one that is negative there crossed earlier, and its first crossing
+    is located on the dense output (Brent) and taken if it comes first.
+
+    Not one that is past its surface by less than ``tol`` (the global error, on each event's
+    scale): a max deformation exactly at a breakpoint only touches it, and the interpolant, a
+    tolerance's worth above the breakpoint over a stretch of time around the max, would report
+    a crossing there (a breakpoint 1e-7 s before the max deformation). One that goes on past
+    its surface fires at the start of the next segment (:func:`_restart`)."""
     g_end = gval(tb, yb)
-    ts = sol.t
+    ts = sol.ts
     for i in active:
-        if i == best or not g_end[i] < 0:
+        if i == best or not g_end[i] < -tol[i]:
             continue
 
         def g(t, i=i):
-            return gval(t, sol.sol(t))[i]
+            return gval(t, sol(t))[i]
 
         # the last step start where the event was still on its positive side
         k = int(np.searchsorted(ts, tb, side="left")) - 1
@@ -148,15 +197,78 @@ def _missed(gval, sol, active, best, tb, yb):
             continue
         root = brentq(g, a, tb, xtol=1e-15, rtol=1e-15, maxiter=200)
         if root < tb:
-            best, tb, yb = i, float(root), sol.sol(root)
+            best, tb, yb = i, float(root), sol(root)
     return best, tb, yb
+
+
+def _locate(g, t_old, t_new, g_old, g_new):
+    """The zero of ``g`` (an event function on a step's dense output) between the step ends
+    ``t_old`` and ``t_new``, where it went from ``g_old >= 0`` to ``g_new <= 0`` (values on the
+    solver's own states): Brent's method on ``g`` inside, bracketed by those end values."""
+    if g_new == 0 or g_old == g_new:
+        return t_new
+    if g_old == 0:
+        return t_old
+
+    def h(t):
+        if t <= t_old:
+            return g_old
+        if t >= t_new:
+            return g_new
+        return g(t)
+
+    # to the ulps of the time itself: an event a few ulps of t after the step start is not at it
+    # (SciPy's absolute xtol of 4 eps s returned the step start for a closing rate of 1e-11 that
+    # a stiff contact stops in 1e-16 s: the state there still closing, a plastic contact
+    # separated and closed again and again to the event limit)
+    xtol = 2 * np.spacing(max(abs(t_old), abs(t_new)))
+    return float(brentq(h, t_old, t_new, xtol=xtol, rtol=4 * np.finfo(float).eps,
+                        maxiter=500))
+
+
+#: One-step integrators whose interpolant is less accurate than their steps: an event located on
+#: it is polished by re-taking the step to it (:func:`_polish`).
+ONE_STEP = ("RK45", "RK23", "DOP853", "Radau")
+
+
+def _polish(restep, g, slope, t_old, t_new, tr, yr, iters: int = 3):
+    """An event at ``tr`` located on a step's interpolant (state ``yr`` there), moved onto the
+    integrator's own solution: ``restep(t)`` re-takes the step from its start to ``t`` (None if
+    the integrator would not take it in one step), and Newton's method on ``g`` (``slope``: its
+    rate along the motion) moves ``t`` until ``g`` is zero on that solution. RK45's quartic
+    interpolant, for one, is off by ~rtol from its own steps: a plastic contact separated at a
+    common velocity that was still closing at that level, closed again and repeated it."""
+    best = (abs(g(tr, yr)), tr, yr)
+    t = tr
+    # a correction, not a search: within 1e-6 of the step of the interpolant's root (where the
+    # function only touches zero, a max deformation exactly at a breakpoint, Newton's steps on
+    # its flat bottom would walk off to where the event has not happened)
+    cap = 1e-6 * (t_new - t_old)
+    lo, hi = max(tr - cap, t_old), min(tr + cap, t_new)
+    for _ in range(iters):
+        y = restep(t)
+        if y is None:
+            break
+        gv = g(t, y)
+        if abs(gv) < best[0] or (abs(gv) == best[0] and t == best[1]):
+            best = (abs(gv), t, y)
+        if gv == 0:
+            break
+        d = slope(t, y)
+        if not d < 0:   # (events cross downward)
+            break
+        t_next = min(max(t - gv / d, lo), hi)
+        if abs(t_next - t) <= 2 * np.spacing(t):
+            break
+        t = t_next
+    return best[1], best[2]
 
 
 def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, t_end=None,
           max_events: int = 10_000, n_samples: int = 1000, first_step=None,
           max_steps: int = 20_000):
-    """Solve ``model`` with ``solve_ivp`` (``integrator``: RK45, DOP853, LSODA, Radau, BDF, RK23);
-    ``max_steps``: most steps in one segment (then a SimulationError)."""
+    """Solve ``model`` with a SciPy integrator (``integrator``: RK45, DOP853, LSODA, Radau, BDF,
+    RK23); ``max_steps``: most steps in one segment (then a SimulationError)."""
     if integrator not in INTEGRATORS:
         from ..errors import SceneError
         raise SceneError("solver.integrator", f"unknown SciPy integrator {integrator!r}; "
@@ -168,64 +280,128 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                          "'closed-form' where they apply")
     p = model.params
     at = _atol(model, rtol, atol)
-    method = _counted(integrator, int(max_steps))
+    method = getattr(scipy.integrate, integrator)
+    max_steps = int(max_steps)
     scale = _event_scales(model)
+    # an event past its surface by less only touched it (100 rtol: the global error of a
+    # deformation, here 2.7e-12 of D_max at rtol 1e-12)
+    touch = max(EVENT_TOL, 100 * rtol) * scale
     last = [0.0, set()]  # the latest event time, and the parts that had events then
 
-    def advance(t0, y0, disc, horizon):
-        def fun(t, y):
-            return model.rhs(t, y, disc, p)
+    N = model.N
+    m = np.asarray(p["m"], float)
 
+    def advance(t0, y0_abs, disc, horizon):
+        y0_abs = np.asarray(y0_abs, float)
         active = model.active_events(disc)
         if t0 != last[0]:
             last[:] = [t0, set()]
-        shift, now = _restart(model, disc, p, t0, y0, active, scale, last[1])
+        shift, now = _restart(model, disc, p, t0, y0_abs, active, scale, last[1])
         if now is not None:
             last[1].add(model.events[now][0])
-            y0 = np.asarray(y0, float)
-            return Step(t0, y0, now, lambda tt: np.repeat(y0[:, None], np.size(tt), axis=1))
+            return Step(t0, y0_abs, now,
+                        lambda tt: np.repeat(y0_abs[:, None], np.size(tt), axis=1))
 
-        def gval(t, y):
-            return model.event_values(t, y, disc, p) + shift
+        # The segment's frame (see _Frame): positions from where the segment starts, moving
+        # with its centre of mass.
+        frame = _Frame(model, p, t0, y0_abs, m, N)
+        pf, to_model = frame.p, frame.to_model
 
-        evs = []
-        for i in active:
-            def ev(t, y, i=i):
-                return gval(t, y)[i]
-            ev.terminal = True
-            ev.direction = -1
-            evs.append(ev)
-        w = model.natural_frequency(disc)
+        def fun(t, u):
+            f = np.asarray(model.rhs(t, to_model(u), disc, pf), float)
+            f[:N] = u[N:2 * N]   # (dx/dt = v: the frame's own velocities, unrounded)
+            return f
+
+        def gval(t, u):
+            return model.event_values(t, to_model(u), disc, pf) + shift
+
+        y0 = frame.u0
+
+        extra_nfev = [0]   # right-hand sides evaluated polishing events
+
+        def restepper(t_a, y_a):
+            """Re-take a step from ``(t_a, y_a)`` to ``t`` (None if not in one step)."""
+            def restep(t):
+                if not t > t_a:
+                    return y_a
+                try:
+                    one = method(fun, t_a, y_a, t, rtol=rtol, atol=at, first_step=t - t_a)
+                    one.step()
+                except ValueError:
+                    return None
+                extra_nfev[0] += one.nfev
+                return one.y if one.status == "finished" and one.t == t else None
+            return restep
+
+        def slope(i, h):
+            """The rate of event function ``i`` along the motion (a forward difference)."""
+            def rate(t, y):
+                return (gval(t + h, y + h * fun(t, y))[i] - gval(t, y)[i]) / h
+            return rate
+
         # (first_step is only the trial size of the first step: never beyond the interval)
         extra = {"first_step": min(first_step, horizon - t0)} if first_step else {}
+        y0 = np.asarray(y0, float)
         try:
-            sol = solve_ivp(fun, (t0, horizon), y0, method=method, rtol=rtol, atol=at,
-                            events=evs or None, dense_output=True,
-                            max_step=MAX_ANGLE / w if w > 0 else np.inf, **extra)
-        except _StepLimit as exc:
-            raise SimulationError(
-                f"SciPy {integrator}: {max_steps} steps in one segment by t = {exc.args[0]:.6g} s "
-                "and no event: the motion is too stiff (or too long) for this integrator at this "
-                "tolerance; try integrator 'Radau' or 'LSODA', a larger rtol, or raise "
-                "solver.max_steps") from None
-        except ValueError as exc:  # raised inside SciPy (e.g. its event root finder)
-            raise SimulationError(f"SciPy {integrator} failed after t = {t0:.6g} s: {exc}") from exc
-        if sol.status == -1:
-            raise SimulationError(f"SciPy {integrator} failed at t = {sol.t[-1]:.6g} s: {sol.message}")
-        steps, nfev = len(sol.t) - 1, sol.nfev
-        best, tb, yb = None, float(sol.t[-1]), sol.y[:, -1]
-        if sol.status == 1:
-            tb = np.inf
-            for j, i in enumerate(active):  # the earliest; on a tie the lowest index
-                if len(sol.t_events[j]) and (best is None or
-                                             sol.t_events[j][0] < tb - 4 * np.spacing(tb)):
-                    best, tb, yb = i, float(sol.t_events[j][0]), sol.y_events[j][0]
-        best, tb, yb = _missed(gval, sol, active, best, tb, yb)
+            solver = method(fun, t0, y0, horizon, rtol=rtol, atol=at,
+                            max_step=_max_step(model, disc), **extra)
+        except ValueError as exc:  # SciPy's own check of its options
+            raise SimulationError(f"SciPy {integrator} could not start at t = {t0:.6g} s: "
+                                  f"{exc}") from exc
+        idx = np.asarray(active, dtype=int)
+        g_old = gval(t0, y0)[idx] if active else None
+        ts, interpolants = [t0], []
+        best, tb, yb = None, t0, y0
+        while solver.status == "running":
+            if len(interpolants) >= max_steps:
+                raise SimulationError(
+                    f"SciPy {integrator}: {max_steps} steps in one segment by t = {solver.t:.6g} "
+                    "s and no event: the motion is too stiff (or too long) for this integrator "
+                    f"at this tolerance; try {_other(integrator)}, a larger rtol, or raise "
+                    "solver.max_steps")
+            message = solver.step()
+            if solver.status == "failed":
+                raise SimulationError(f"SciPy {integrator} failed at t = {solver.t:.6g} s: "
+                                      f"{message}")
+            t_old, t_new, y_new = float(solver.t_old), float(solver.t), solver.y
+            dense = solver.dense_output()
+            ts.append(t_new)
+            interpolants.append(dense)
+            tb, yb = t_new, y_new
+            if not active:
+                continue
+            g_new = gval(t_new, y_new)[idx]
+            down = np.flatnonzero((g_old >= 0) & (g_new <= 0))
+            if down.size:
+                roots = []
+                for j in down:
+                    i = active[j]
+                    roots.append((_locate(lambda t, i=i: gval(t, dense(t))[i], t_old, t_new,
+                                          g_old[j], g_new[j]), i))
+                # the earliest; on a tie (within 4 ulps) the lowest index
+                first = min(r for r, _ in roots)
+                best, tb = min((i, r) for r, i in roots if r <= first + 4 * np.spacing(first))
+                yb = y_new if tb == t_new else dense(tb)
+                if tb < t_new and integrator in ONE_STEP:
+                    tb, yb = _polish(restepper(t_old, np.array(solver.y_old)),
+                                     lambda t, y, i=best: gval(t, y)[i],
+                                     slope(best, 1e-6 * (t_new - t_old)),
+                                     t_old, t_new, tb, yb)
+                tb = float(tb)
+                break
+            g_old = g_new
+        steps, nfev = len(interpolants), solver.nfev + extra_nfev[0]
+        if not interpolants:   # nothing to integrate (t0 at the horizon)
+            return Step(t0, y0_abs, None,
+                        lambda tt: np.repeat(y0_abs[:, None], np.size(tt), axis=1))
+        sol = OdeSolution(np.asarray(ts), interpolants,
+                          alt_segment=integrator in ("BDF", "LSODA"))
+        best, tb, yb = _missed(gval, sol, active, best, tb, yb, touch)
         if best is not None:
             if tb != last[0]:
                 last[:] = [tb, set()]
             last[1].add(model.events[best][0])
-        return Step(tb, yb, best, sol.sol, steps, nfev)
+        return Step(tb, frame.to_abs(tb, yb), best, frame.dense(sol), steps, nfev)
 
     start = time.perf_counter()
     segments, events, y, disc, totals = run_segments(model, advance, t_end=t_end,

@@ -41,11 +41,14 @@ GLOBAL_FACTOR = {"DOP853": 100.0, "RK45": 300.0, "RK23": 300.0, "LSODA": 3000.0,
 SCIPY_INTEGRATORS = ("DOP853", "RK45", "LSODA")
 
 
+#: ``LSC_CASES_SCALE``: multiply every case count (e.g. 0.1 while developing a property).
+SCALE = float(os.environ.get("LSC_CASES_SCALE", "1") or 1)
+
+
 def cases(default: int, hard: int | None = None) -> int:
     """Number of generated cases: ``default``, or ``hard`` (20 x default) in hard mode."""
-    if HARD:
-        return int(hard if hard is not None else 20 * default)
-    return int(default)
+    n = (hard if hard is not None else 20 * default) if HARD else default
+    return max(1, int(round(n * SCALE)))
 
 
 def hard_settings(default: int, hard: int | None = None, **kw):
@@ -72,8 +75,10 @@ def log_uniform(lo: float, hi: float):
     return st.floats(np.log10(lo), np.log10(hi)).map(lambda x: float(10.0 ** x))
 
 
-#: Restitution: the three named hard values or anything in [0, 1].
-restitutions = st.one_of(st.sampled_from([0.0, 1e-6, 1.0]), st.floats(0.0, 1.0))
+#: Restitution: the three named hard values, anything in [0, 1], or near-plastic (1e-12 to 1e-2:
+#: rebounds a few ulps to a few thousand ulps of the max deformation wide).
+restitutions = st.one_of(st.sampled_from([0.0, 1e-6, 1.0]), st.floats(0.0, 1.0),
+                         log_uniform(1e-12, 1e-2))
 #: Mass of the rear vehicle [slug] and the mass ratio m2/m1 from 1:1000 to 1000:1.
 masses = st.tuples(log_uniform(1.0, 1000.0), log_uniform(1e-3, 1e3)).map(
     lambda mr: (mr[0], mr[0] * mr[1]))
@@ -156,17 +161,48 @@ def rounding_floor(scene) -> float:
     return 64 * EPS * speed_scale(scene) / closing_scale(scene)
 
 
+def straight_restitution(scene) -> float | None:
+    """The restitution of a two-vehicle scene's straight unloading line (a restitution, or the
+    ``sqrt(k/k_u)`` of a stiffness over a linear loading branch); None for anything else."""
+    from lsc.scene import Hysteresis, Restitution, UnloadingStiffness
+
+    c = scene.contacts[0]
+    if not isinstance(c.law, Hysteresis):
+        return None
+    u = c.law.unloading
+    if isinstance(u, Restitution):
+        return float(u.e)
+    if isinstance(u, UnloadingStiffness) and c.law.loading.is_linear:
+        return float(np.sqrt(c.law.loading.stiffness / u.stiffness))
+    return None
+
+
+def rebound_floor(scene) -> float:
+    """The float64 floor of a backend that integrates the motion (SciPy, diffrax) on a
+    near-plastic rebound, relative to the closing speed. The rebound is ``w = e² D_max`` wide and
+    such a backend holds a deformation to ``ε D_max`` at best (the SciPy backend integrates each
+    segment in its own frame for that; absolute positions would hold it only to their own
+    ulps): the rebound speed ``e v0`` is off by about ``ε / e`` of ``v0``, or, below
+    ``w = 4 ε D_max`` where the law drops the rebound (:data:`lsc.contact.REBOUND_RESOLUTION`),
+    by ``e``. ``64 ε / e`` bounds the measured errors with a margin of 10."""
+    e = straight_restitution(scene)
+    if not e:
+        return 0.0
+    return min(e, 64 * EPS / e)
+
+
 def tolerance(r: lsc.Result) -> float:
     """The relative accuracy (of a ΔV, relative to the closing speed) that ``r``'s backend
     promises: rounding for the exact backends, ``GLOBAL_FACTOR x rtol`` (on the backend's speed
-    scale, the largest speed) for the integrators. ``reference`` has no tolerance (first order in
+    scale, the largest speed) for the integrators, not below their :func:`rebound_floor`. ``reference`` has no tolerance (first order in
     dt) and is only checked for convergence."""
     floor = rounding_floor(r.scene)
     if r.method in ("closed-form", "exact"):
         return max(1e-12, floor)
     integ = r.method.split("-", 1)[1]
     rtol = r.tolerances["rtol"]
-    return max(GLOBAL_FACTOR[integ] * rtol * speed_scale(r.scene) / closing_scale(r.scene), floor)
+    return max(GLOBAL_FACTOR[integ] * rtol * speed_scale(r.scene) / closing_scale(r.scene), floor,
+               rebound_floor(r.scene))
 
 
 def check_result(r: lsc.Result, *, external: bool = False) -> None:
@@ -181,10 +217,11 @@ def check_result(r: lsc.Result, *, external: bool = False) -> None:
 
 
 def check_agrees(r: lsc.Result, ref: lsc.Result, *, tol: float | None = None,
-                 contacts: bool = True) -> None:
+                 contacts: bool = True, dmax_tol: float | None = None) -> None:
     """``r`` agrees with the exact ``ref`` to ``r``'s tolerance: ΔV of every vehicle (relative
     to the closing speed), the energies (relative to the relative kinetic energy) and the max
-    deformation (relative to ref's)."""
+    deformation (relative to ref's; to ``dmax_tol`` where it is worse conditioned than the
+    velocities: on a separatrix, where an energy off by ``ε`` moves it by ``√ε``)."""
     tol = tolerance(r) if tol is None else tol
     w = closing_scale(ref.scene)
     dv = float(np.max(np.abs(r.delta_v - ref.delta_v))) / w
@@ -196,8 +233,14 @@ def check_agrees(r: lsc.Result, ref: lsc.Result, *, tol: float | None = None,
     de = float(np.max(np.abs(r.energy_absorbed - ref.energy_absorbed))) / ke0
     assert de <= 4 * tol, f"{r.method}: absorbed energy off by {de:.3g} (tolerance {4 * tol:.3g})"
     dd = np.abs(r.max_deformation - ref.max_deformation) / np.maximum(ref.max_deformation, 1e-300)
-    assert np.all(dd <= max(4 * tol, 1e-9)), \
+    assert np.all(dd <= (max(4 * tol, 1e-9) if dmax_tol is None else dmax_tol)), \
         f"{r.method}: max deformation {r.max_deformation} vs {ref.max_deformation} ({ref.method})"
+
+
+def event_kinds(r: lsc.Result) -> list[str]:
+    """The kinds of ``r``'s events, a combined kind (``max_deformation+separation``: a rebound
+    below the backend's resolution) split into its parts."""
+    return [part for e in r.events for part in e.kind.split("+")]
 
 
 def solve_all(scene, runs):
