@@ -174,8 +174,9 @@ class HybridModel:
         if j < self.K:
             D, Dd = self.deformation(y, p, xp)
             mu = self._mu(p, xp)
+            size = abs(y[j]) + abs(y[j + 1]) + abs(p["gap"][j])  # what D is computed from
             new[j] = self.laws[j].on_event(w, D[j], Dd[j], disc[j], p["contacts"][j], xp,
-                                           mu=mu[j], w=self.work_of(y, j))
+                                           mu=mu[j], w=self.work_of(y, j), size=size)
             return new
         F, net, _ = self.accelerations(y, disc, p, xp)
         b = j - self.K
