@@ -190,8 +190,10 @@ class HysteresisLaw:
         touching = (D >= 0) & (Ddot > 0)
         return _sel(touching, self._loading_at(st, D, p, xp), self._open(st, xp), xp)
 
-    def _max_deformation(self, st: dict, D, p: dict, xp) -> dict:
-        """Common velocity reached: record (D_max, F_max) and switch to the unloading branch."""
+    def _max_deformation(self, st: dict, D, p: dict, xp, size=None) -> dict:
+        """Common velocity reached: record (D_max, F_max) and switch to the unloading branch.
+        ``size`` [length]: the magnitude ``D`` was computed from (``|x_k| + |x_k+1| + gap``; its
+        rounding is the resolution of ``D``); default ``|D|``."""
         seg = xp.clip(st["seg"], 0, self.n_load - 1)  # (also evaluated, unused, in other modes)
         F = self.force(D, 0.0, st)
         x = D - p["ld"][seg]
@@ -217,13 +219,20 @@ class HysteresisLaw:
         # backend resolves, wres D_max; see REBOUND_RESOLUTION): separate at once.
         # (and a line so narrow that its slope F/dscale would overflow: e² below 1e-300)
         instant = (dscale <= p["wres"] * abs(D)) | (F <= 0) | (dscale <= 1e-300 * F)
+        if size is not None:
+            # a backend that integrates absolute positions resolves D only to the rounding of
+            # the positions it is computed from (``size``): a narrower rebound separates at once
+            instant = instant | (dscale <= 8.9e-16 * xp.maximum(abs(D), size))
         new_open = dict(new)
         new_open.update(dperm=D, dscale=xp.asarray(0.0), er=xp.asarray(0.0))
         return _sel(instant, self._open(new_open, xp),
                     self._unloading(new, xp.asarray(self.n_unload - 2), p, xp), xp)
 
-    def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np, mu=None, w=None) -> dict:
-        """Discrete state after event ``which`` (0 = lo, 1 = hi, 2 = vmax) at deformation ``D``."""
+    def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np, mu=None, w=None,
+                 size=None) -> dict:
+        """Discrete state after event ``which`` (0 = lo, 1 = hi, 2 = vmax) at deformation ``D``;
+        ``size`` [length]: the magnitude ``D`` was computed from, for its rounding (a rebound
+        narrower than that separates at once: an integrator could not resolve it)."""
         mode, seg = st["mode"], st["seg"]
         loading, unloading = (mode == MODE_LOADING), (mode == MODE_UNLOADING)
         top, bottom = seg >= self.n_unload - 2, seg <= 0
@@ -240,7 +249,7 @@ class HysteresisLaw:
                   self._unloading(st, xp.clip(seg - 1, 0, self.n_unload - 2), p, xp), xp)
         lo = _sel(unloading, lo, st, xp)
         # vmax: common velocity while loading
-        vm = _sel(loading, self._max_deformation(st, D, p, xp), st, xp)
+        vm = _sel(loading, self._max_deformation(st, D, p, xp, size), st, xp)
         return _sel(which == 0, lo, _sel(which == 1, hi, vm, xp), xp)
 
     # ------------------------------------------------------------------ reporting
@@ -459,9 +468,10 @@ class DampingLaw:
         st = self._zero(p, xp)
         return _sel((D >= 0) & (Ddot > 0), self._close(st, Ddot, p, xp, mu), st, xp)
 
-    def on_event(self, which, D, Ddot, st, p, xp=np, mu=1.0, w=0.0):
+    def on_event(self, which, D, Ddot, st, p, xp=np, mu=1.0, w=0.0, size=None):
         """State after event ``which`` (0 separate, 1 max compression, 2 close, 3 re-compress);
-        ``w`` is the contact's work integral ``∫F dD`` at the event [energy]."""
+        ``w`` is the contact's work integral ``∫F dD`` at the event [energy] (``size``: unused,
+        as :meth:`HysteresisLaw.on_event`)."""
         z, one = xp.asarray(0.0), xp.asarray(1.0)
         sep = dict(st)
         sep.update(mode=xp.asarray(MODE_OPEN), on=z, comp=z, dperm=D,

@@ -167,15 +167,18 @@ class HybridModel:
         """The work integral of contact ``k`` in state ``y`` (0 if its law keeps none)."""
         return y[2 * self.N + self.work.index(k)] if k in self.work else 0.0
 
-    def apply_event(self, i: int, t, y, disc, p, xp=np):
-        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged."""
+    def apply_event(self, i: int, t, y, disc, p, xp=np, absolute: bool = False):
+        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged.
+        ``absolute``: the backend integrates absolute positions, so a deformation is resolved
+        only to the rounding of the positions it is computed from (the law is told their size)."""
         j, w = self.events[i]
         new = list(disc)
         if j < self.K:
             D, Dd = self.deformation(y, p, xp)
             mu = self._mu(p, xp)
+            size = (abs(y[j]) + abs(y[j + 1]) + abs(p["gap"][j])) if absolute else None
             new[j] = self.laws[j].on_event(w, D[j], Dd[j], disc[j], p["contacts"][j], xp,
-                                           mu=mu[j], w=self.work_of(y, j))
+                                           mu=mu[j], w=self.work_of(y, j), size=size)
             return new
         F, net, _ = self.accelerations(y, disc, p, xp)
         b = j - self.K

@@ -6,8 +6,11 @@ axes of a grid). Every member is validated exactly as a scene would be: a member
 or whose physics cannot be completed gets its reason in ``status`` and NaN metrics, and the other
 members are still returned.
 
-Backends: ``closed-form`` is one vectorised NumPy evaluation; ``exact`` and ``diffrax`` solve the
-whole batch at once where they provide a batch solver; every other method loops over members.
+Backends: ``closed-form`` is one vectorised NumPy evaluation; ``exact`` is one vectorised NumPy
+stepper over the batch; ``diffrax`` is one ``jax.vmap``-ed compiled solve per chunk of members
+(members that end at different times simply stop while the others go on); every other method
+loops over members. A sweep over solver settings (``solver.rtol``, ...) or over a path the batch
+paths cannot set loops, so that each member uses its own settings.
 """
 
 from __future__ import annotations
@@ -23,7 +26,11 @@ from .result import METRICS
 from .scene import Restitution, Scene, UnloadingStiffness
 from . import solvers
 
-__all__ = ["sweep", "SweepResult"]
+__all__ = ["sweep", "SweepResult", "CHUNK"]
+
+#: Most members in one compiled ``diffrax`` call (a smaller sweep is padded to a power of two):
+#: small, because in a vmapped loop every member of a call waits for its slowest.
+CHUNK = 1024
 
 
 @dataclass(eq=False)
@@ -228,14 +235,15 @@ def _fast_setter(scene: Scene, path: str):
     return None
 
 
-def _batched(params: dict, n: int) -> dict:
-    """The model's parameter pytree with a leading member axis of length ``n``."""
-    def rep(x):
-        x = np.asarray(x, float)
-        return np.repeat(x[None, ...], n, axis=0)
-    out = {k: rep(v) for k, v in params.items() if k != "contacts"}
-    out["contacts"] = [{k: rep(v) for k, v in c.items()} for c in params["contacts"]]
-    return out
+def _batched(params, n: int):
+    """The model's parameter pytree (dicts and lists of arrays) with a leading member axis of
+    length ``n`` on every array."""
+    if isinstance(params, dict):
+        return {k: _batched(v, n) for k, v in params.items()}
+    if isinstance(params, (list, tuple)):
+        return [_batched(v, n) for v in params]
+    x = np.asarray(params, float)
+    return np.repeat(x[None, ...], n, axis=0)
 
 
 def _validate(scene: Scene, values: dict, n: int) -> np.ndarray:
@@ -338,7 +346,7 @@ def _progress(total: int, progress):
 
 # --------------------------------------------------------------------------- the sweep
 def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False, progress=None,
-          **options) -> SweepResult:
+          chunk: int = CHUNK, workers: int | None = None, **options) -> SweepResult:
     """Solve ``scene`` for every member of a parameter sweep.
 
     Parameters
@@ -353,6 +361,12 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
         backend for the base scene).
     progress : bool or None
         Show a progress bar (``None``: only when stderr is a terminal).
+    chunk : int
+        ``diffrax`` batches: most members in one compiled vmapped call (memory and the time
+        the slowest member of a chunk holds the others are bounded by it; the progress bar
+        advances per chunk).
+    workers : int, optional
+        ``diffrax`` batches: chunks solved at once, in threads (default: the CPU count).
     **options
         Solver options as for :func:`lsc.solve` (``rtol``, ``dt``, ...).
 
@@ -361,6 +375,10 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     SweepResult
     """
     start = time.perf_counter()
+    if workers is None:
+        import os
+
+        workers = os.cpu_count() or 1
     base = Scene.load(scene)
     values, shape = _axes(base, params, grid)
     n = int(np.prod(shape))
@@ -376,6 +394,9 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
         _closed_form_batch(base, values, setters, ok, metrics)
     elif backend == "exact" and fast and not set(opts) - {"n_samples"}:
         _exact_batch(base, values, setters, ok, metrics, status)
+    elif backend == "diffrax" and fast and _have_diffrax():
+        _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, chunk,
+                       workers)
     else:
         _loop(base, values, method, options, status, metrics, progress)
     wall = time.perf_counter() - start
@@ -472,5 +493,127 @@ def _loop(base, values, method, options, status, metrics, progress):
                 continue
             for name in metrics:
                 metrics[name][j] = getattr(r, name)
+    finally:
+        bar.close()
+
+
+def _have_diffrax() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("diffrax") is not None
+
+
+def _horizons(model: HybridModel, p: dict) -> np.ndarray:
+    """:meth:`HybridModel.horizon` of every member (n,) [s] of the batched parameters ``p``: a
+    million contact times on the softest slope and the heaviest pair, plus four times what
+    closing every gap and crossing every table takes at the slowest initial closing speed."""
+    m, v0 = p["m"], p["v0"]
+    n = m.shape[0]
+    mu = np.max(m[:, :-1] * m[:, 1:] / (m[:, :-1] + m[:, 1:]), axis=1)
+    slopes = [np.abs(np.reshape(c[key], (n, -1))) for c in p["contacts"]
+              for key in ("ls", "su", "k") if key in c]
+    if slopes:
+        s = np.concatenate(slopes, axis=1)
+        s = np.where(np.isfinite(s) & (s > 0), s, np.inf)
+        k = np.min(s, axis=1)
+        k = np.where(np.isfinite(k), k, 1.0)
+    else:
+        k = np.ones(n)
+    v_scale = np.maximum(np.maximum(np.max(np.abs(v0), axis=1),
+                                    np.max(np.abs(np.diff(v0, axis=1)), axis=1)), 1e-300)
+    w = -np.diff(v0, axis=1)
+    w = np.where(w > 1e-12 * v_scale[:, None], w, np.inf)
+    w_min = np.min(w, axis=1)
+    w_min = np.where(np.isfinite(w_min), w_min, v_scale)
+    extent = np.sum(p["gap"], axis=1)
+    for c in p["contacts"]:
+        for key in ("ld", "ud"):
+            if key in c:
+                val = np.abs(np.reshape(c[key], (n, -1)))
+                val = np.where(val < 1e299, val, 0.0)
+                extent = extent + np.max(val, axis=1)
+    return 1e6 * np.sqrt(mu / k) + 4.0 * extent / w_min + 1.0
+
+
+def _work_order(p: dict) -> np.ndarray:
+    """An order of the members (batched parameters ``p``) that puts members that take similar
+    paths next to each other: by relative kinetic energy over the energy the loading curves
+    hold at their last breakpoint (which breakpoints a crash crosses, hence its segments)."""
+    m, v0 = np.asarray(p["m"], float), np.asarray(p["v0"], float)
+    mu = m[:, :-1] * m[:, 1:] / (m[:, :-1] + m[:, 1:])
+    w = np.maximum(v0[:, :-1] - v0[:, 1:], 0.0)
+    key = np.zeros(m.shape[0])
+    for k, c in enumerate(p["contacts"]):
+        cap = np.asarray(c["le"], float)[:, -2] if "le" in c else np.zeros(m.shape[0])
+        key = key + 0.5 * mu[:, k] * w[:, k] ** 2 / np.where(cap > 0, cap, 1.0)
+    return np.argsort(key, kind="stable")
+
+
+def _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, chunk, workers):
+    """The members in chunks of at most ``chunk``, each one vmapped compiled diffrax solve
+    (:func:`lsc.solvers.diffrax_ode.solve_batch`), ``workers`` chunks at a time (threads: a
+    compiled call releases the GIL). In a vmapped loop every member waits for the slowest of its
+    chunk, so the members are first ordered by :func:`_work_order` and the chunks are small.
+    Parameters that no member changes are shared, not batched. A smaller batch is padded (with
+    its last member) to a power of two, the last chunk to ``chunk``, so that few batch shapes
+    are compiled. A member that fails gets ``"SimulationError: ..."`` (the message a single
+    solve raises) and NaN metrics."""
+    import jax
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .solvers import diffrax_ode as dx
+
+    run = np.nonzero(ok)[0]
+    if run.size == 0:
+        return
+    model = HybridModel(base)
+    p = _batched(model.params, ok.size)
+    for path, vals in values.items():
+        setters[path](p, vals)
+    leaves, tree = jax.tree_util.tree_flatten(model.params)
+    batch = [np.asarray(b)[run] for b in tree.flatten_up_to(p)]
+    pr = jax.tree_util.tree_unflatten(tree, batch)
+    order = _work_order(pr)
+    run = run[order]
+    batch = [b[order] for b in batch]
+    horizon = _horizons(model, jax.tree_util.tree_unflatten(tree, batch))
+    varies = [bool(np.any(b != np.asarray(a, float))) for a, b in zip(leaves, batch)]
+    if not any(varies):  # every member is the base scene: batch one leaf all the same
+        varies[0] = True
+    batch = [b if v else np.asarray(a, float) for a, b, v in zip(leaves, batch, varies)]
+    kw = {k: v for k, v in opts.items() if k != "n_samples"}
+    size = min(max(1, int(chunk)), 1 << (run.size - 1).bit_length())
+    starts = list(range(0, run.size, size))
+
+    def solve(lo):
+        idx = np.arange(lo, min(lo + size, run.size))
+        pad = np.concatenate([idx, np.full(size - idx.size, idx[-1])])
+        pb = jax.tree_util.tree_unflatten(tree, [b[pad] if v else b
+                                                 for b, v in zip(batch, varies)])
+        return idx, dx.solve_batch(model, pb, horizon=horizon[pad], **kw)
+
+    def store(idx, res):
+        members = run[idx]
+        good = res["status"][: idx.size] == 0
+        for name in metrics:
+            arr = np.asarray(res[name], float)[: idx.size]
+            if metrics[name].ndim == 2 and arr.ndim == 1:
+                arr = arr[:, None]
+            metrics[name][members[good]] = arr[good]
+        for j in np.nonzero(~good)[0]:
+            status[members[j]] = f"SimulationError: {res['message'][j]}"
+        bar.update(idx.size)
+
+    bar = _progress(run.size, progress)
+    try:
+        store(*solve(starts[0]))  # compiles (once per structure, options and chunk size)
+        workers = max(1, min(int(workers), len(starts) - 1))
+        if workers > 1:
+            with ThreadPoolExecutor(workers) as pool:
+                for idx, res in pool.map(solve, starts[1:]):
+                    store(idx, res)
+        else:
+            for lo in starts[1:]:
+                store(*solve(lo))
     finally:
         bar.close()

@@ -158,3 +158,111 @@ def test_table_sweep_runs_as_one_exact_batch_equal_to_single_solves():
             continue
         for name in ("delta_v", "duration", "peak_force", "max_deformation", "restitution"):
             assert np.allclose(getattr(s, name)[j], getattr(r, name), rtol=1e-12, atol=1e-300), name
+
+
+# ---------------------------------------------------------------------------------- diffrax
+# US units: a measured-like table long enough for 30 ft/s (soft start, plateau, dip, stiff end)
+LONG_TABLE = {"table": [[0, 0], [0.05, 500], [0.15, 2500], [0.3, 6000], [0.4, 6000],
+                        [0.5, 5500], [0.8, 12000], [2.0, 60000]]}
+US_BASE = {"units": "US",
+           "vehicles": [{"weight": 3500, "speed": 10}, {"weight": 3000, "speed": 0}],
+           "contacts": [{"loading": LONG_TABLE, "unloading": {"restitution": 0.5}}]}
+SWEEP_METRICS = ("delta_v", "v_final", "duration", "peak_force", "peak_acceleration",
+                 "max_deformation", "permanent_deformation", "restitution",
+                 "restitution_energy", "energy_absorbed", "energy_returned")
+
+
+def test_diffrax_sweep_of_1000_equals_single_solves_and_the_exact_backend():
+    pytest.importorskip("diffrax")
+    rng = np.random.default_rng(11)
+    n = 1000
+    params = {"vehicles.0.speed": rng.uniform(0.5, 30.0, n),
+              "contacts.0.unloading.restitution": rng.uniform(0.0, 1.0, n)}
+    params["vehicles.0.speed"][:4] = [0.5, 30.0, 0.5, 30.0]
+    params["contacts.0.unloading.restitution"][:4] = [0.0, 0.0, 1.0, 1.0]
+    s = lsc.sweep(US_BASE, params, method="diffrax", rtol=1e-11)
+    assert s.method == "diffrax"
+    # members end at very different times (e = 0 at the max crush, e = 1 after a full
+    # rebound; few or all of the breakpoints crossed), after different numbers of events
+    assert np.nanmax(s.duration) > 2.5 * np.nanmin(s.duration)
+    assert np.ptp(s.max_deformation[s.ok]) > 1.0
+    # a unit restitution on this table asks for a negative permanent set: reported, not lost
+    assert 0 < np.sum(~s.ok) < n // 2
+    base = lsc.Scene.load(US_BASE)
+    for j in range(n):
+        member = base.with_values({p: float(v[j]) for p, v in params.items()})
+        try:
+            r = lsc.solve(member, method="diffrax", rtol=1e-11, n_samples=2)
+        except lsc.SimulationError as e:
+            assert s.status[j] == f"SimulationError: {e}", j
+            assert np.isnan(s.delta_v[j]).all()
+            continue
+        assert s.status[j] == "ok", (j, s.status[j])
+        for name in SWEEP_METRICS:
+            assert np.allclose(getattr(s, name)[j], getattr(r, name), rtol=1e-9, atol=0), (j, name)
+    # and each member is right, not only equal to its single solve: the exact backend
+    ex = lsc.sweep(US_BASE, params, method="exact")
+    assert np.array_equal(ex.ok, s.ok)
+    for name in ("delta_v", "duration", "peak_force", "max_deformation", "energy_returned"):
+        a, b = getattr(s, name)[s.ok], getattr(ex, name)[s.ok]
+        assert np.allclose(a, b, rtol=1e-9, atol=1e-12 * np.max(np.abs(b))), name
+
+
+def test_diffrax_sweep_reports_failing_members_and_returns_the_rest():
+    pytest.importorskip("diffrax")
+    short = {"units": "US",
+             "vehicles": [{"weight": 3500, "speed": 5}, {"weight": 3500, "speed": 0}],
+             "contacts": [{"loading": {"table": [[0, 0], [0.1, 2000], [0.3, 9000]]},
+                           "unloading": {"restitution": 0.4}}]}
+    speeds = [2.0, 60.0, 1.5, 4.0]  # 60 ft/s runs off the end of the table
+    es = [0.3, 0.3, 1.5, 0.5]       # 1.5 is no restitution
+    s = lsc.sweep(short, {"vehicles.0.speed": speeds, "contacts.0.unloading.restitution": es},
+                  method="diffrax")
+    assert list(s.ok) == [True, False, False, True]
+    assert s.status[1].startswith("SimulationError: contact 0 at t = ")
+    assert "loading table ends before the vehicles reach a common velocity" in s.status[1]
+    assert s.status[2].startswith("SceneError:") and "restitution" in s.status[2]
+    assert np.isnan(s.delta_v[1:3]).all() and s.stats["failed"] == 2
+    for j in (0, 3):
+        member = lsc.Scene.load(short).with_values({"vehicles.0.speed": speeds[j],
+                                                    "contacts.0.unloading.restitution": es[j]})
+        r = lsc.solve(member, method="exact")
+        assert np.allclose(s.delta_v[j], r.delta_v, rtol=1e-9)
+    with pytest.raises(lsc.SimulationError) as e:
+        lsc.solve(lsc.Scene.load(short).with_values({"vehicles.0.speed": 60.0,
+                                                     "contacts.0.unloading.restitution": 0.3}),
+                  method="diffrax")
+    assert s.status[1] == f"SimulationError: {e.value}"
+
+
+def test_diffrax_sweep_chunks_and_workers_do_not_change_the_answer():
+    pytest.importorskip("diffrax")
+    rng = np.random.default_rng(5)
+    params = {"vehicles.0.speed": rng.uniform(1, 20, 300),
+              "contacts.0.unloading.restitution": rng.uniform(0.1, 0.9, 300),
+              "vehicles.1.weight": rng.uniform(2500, 4500, 300)}
+    one = lsc.sweep(US_BASE, params, method="diffrax", chunk=1024, workers=1)
+    many = lsc.sweep(US_BASE, params, method="diffrax", chunk=64, workers=2)
+    assert np.array_equal(one.status, many.status)
+    for name in SWEEP_METRICS:
+        assert np.allclose(getattr(one, name), getattr(many, name), rtol=1e-12, atol=0,
+                           equal_nan=True), name
+
+
+def test_cli_sweep_with_diffrax(tmp_path, capsys):
+    pytest.importorskip("diffrax")
+    from lsc.cli import main
+
+    code = main(["sweep", "--param", "vehicles.0.speed=2:12:6", "--method", "diffrax",
+                 "--rtol", "1e-11", "--metric", "delta_v", "--out", str(tmp_path)])
+    assert code == 0
+    assert "6 members by diffrax" in capsys.readouterr().out
+    rows = (tmp_path / "sweep.csv").read_text().splitlines()
+    head = rows[0].split(",")
+    for row in rows[1:]:
+        rec = dict(zip(head, row.split(",")))
+        v = float(rec["vehicles.0.speed"])
+        # the default scene: the paper's, e = 0.4, equal masses
+        assert float(rec["delta_v[target] (ft/s)"]) == pytest.approx(0.7 * v, rel=1e-9)
+        assert rec["status"] == "ok"
+    assert (tmp_path / "sweep.png").read_bytes()[:4] == b"\x89PNG"
