@@ -392,7 +392,9 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     ok = status == "ok"
     if backend == "closed-form" and fast:
         _closed_form_batch(base, values, setters, ok, metrics)
-    elif backend == "exact" and fast and not set(opts) - {"n_samples"}:
+    elif (backend == "exact" and fast and not set(opts) - {"n_samples"}
+          and not any(v.brake is not None for v in base.vehicles)):
+        # (the vectorised exact stepper has no friction: braked scenes are solved one by one)
         _exact_batch(base, values, setters, ok, metrics, status)
     elif backend == "diffrax" and fast and _have_diffrax():
         _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, chunk,

@@ -266,3 +266,19 @@ def test_cli_sweep_with_diffrax(tmp_path, capsys):
         assert float(rec["delta_v[target] (ft/s)"]) == pytest.approx(0.7 * v, rel=1e-9)
         assert rec["status"] == "ok"
     assert (tmp_path / "sweep.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_braked_scene_sweep_equals_single_solves():
+    """A braked scene is not sent to the vectorised exact stepper (which has no friction): each
+    member equals its own solve, friction included."""
+    sc = {"units": "US", "g": "32.2 ft/s^2",
+          "vehicles": [{"weight": 3500, "speed": 10},
+                       {"weight": 3500, "speed": 0, "brake": {"mu": 0.7, "mu_static": 0.8}}],
+          "contacts": [{"loading": {"table": [[0, 0], [0.1, 3000], [0.5, 12000], [2, 40000]]},
+                        "unloading": {"restitution": 0.4}}]}
+    speeds = [4.0, 8.0]
+    s = lsc.sweep(sc, {"vehicles.0.speed": speeds})
+    for j, v in enumerate(speeds):
+        one = lsc.solve(lsc.Scene.load(sc).with_values({"vehicles.0.speed": v}))
+        np.testing.assert_allclose(s.metrics["delta_v"][j], one.delta_v, rtol=1e-12, atol=1e-12)
+    assert s.metrics["delta_v"][0][1] == 0.0  # below break-away: the braked target never moves
