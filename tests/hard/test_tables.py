@@ -86,11 +86,10 @@ def test_noisy_10000_point_tables(case):
 
 
 @pytest.mark.skipif(not have_diffrax(), reason="diffrax (the [jax] extra) is not installed")
-@hard_settings(20)
+@hard_settings(8, hard=200)  # (each table length compiles its own diffrax solver: ~10 s)
 @given(table_scenes(kinds=SMOOTH_KINDS, n_max=12))
 def test_tables_diffrax_matches_exact(case):
     kind, scene = case
     ex = lsc.solve(scene, method="exact")
-    r = lsc.solve(scene, method="diffrax")
-    check_result(r)
-    check_agrees(r, ex)
+    # (the same checks as every SciPy integrator, the √ε-conditioned zero-tangent case included)
+    _agree(lsc.solve(scene, method="diffrax"), ex, kind)
