@@ -41,6 +41,9 @@ STATUS = {
     4: ("Brach's law cannot reach the requested restitution at this closing speed with its "
         "compression damping c1 (no restoring damping c2 >= 0 gives it): lower the damping or "
         "raise the restitution"),
+    5: ("the post-failure loading table ends before the vehicles reach a common velocity (the "
+        "crash needs more deformation after the bumper failed than failure.post_failure gives). "
+        "Extend that table, or scale its forces up (`scale = ...` in failure.post_failure)"),
 }
 
 
@@ -56,7 +59,11 @@ REBOUND_RESOLUTION = 4 * float(np.finfo(float).eps)
 
 
 def _sel(cond, a: dict, b: dict, xp) -> dict:
-    """Field-wise ``where(cond, a, b)`` over two discrete states."""
+    """Field-wise ``where(cond, a, b)`` over two discrete states (on NumPy with a scalar ``cond``
+    a plain pick of the same values, without a ``where`` per field)."""
+    if xp is np and np.ndim(cond) == 0:
+        src = a if cond else b
+        return {k: src[k] for k in a}
     return {k: xp.where(cond, a[k], b[k]) for k in a}
 
 
@@ -68,26 +75,41 @@ class HysteresisLaw:
     ``lo, hi``, ``vm`` (1 while loading: the max-deformation event is armed), the history
     ``dmax, fmax, dperm, ec`` (absorbed energy), the unloading map ``dscale, fscale``, the energy
     the unloading curve returns ``er``, and ``status`` (see :data:`STATUS`).
+
+    Bumper failure with a post-failure curve (``failure.post_failure``): the law follows the
+    spliced loading curve (:meth:`~lsc.curves.Curve.splice`: the virgin curve up to the failure
+    deformation ``D_f``, parameter ``dfail`` [length], then the post-failure curve counted from
+    there; the force may step at ``D_f``, a breakpoint where the next piece starts at its own
+    force). The state then also holds ``failed`` (1 once loading has reached ``D_f``), and the
+    breakpoint event at ``D_f`` is named ``"failure"``. Unloading works from the spliced curve
+    as from any loading curve (``E_c`` is the area under it up to ``D_max``).
     """
 
     name = "hysteresis"
     event_kinds = ("lo", "hi", "vmax")
     tracks_work = False  # its energies follow exactly from the curves
 
-    def __init__(self, spec: Hysteresis):
+    def __init__(self, spec: Hysteresis, failure=None):
         self.spec = spec
         c = spec.loading
-        n = c.d.size
+        self.fails = failure is not None and failure.post_failure is not None
+        if self.fails:
+            c, dfail = c.splice(failure.force, failure.post_failure)
+        self.loading = c  # the curve the law follows (spliced at the failure point, if any)
+        ld, lf, ls, le = c.pieces()
+        n = ld.size
         self.n_load = n
         self.extends = c.extends
         pad = 1
-        slopes = np.nan_to_num(c.slopes, nan=0.0)
+        slopes = np.nan_to_num(ls, nan=0.0)
         self.params = {
-            "ld": np.append(c.d, [BIG] * pad),
-            "lf": np.append(c.f, [c.f[-1]] * pad),
+            "ld": np.append(ld, [BIG] * pad),
+            "lf": np.append(lf, [lf[-1]] * pad),
             "ls": np.append(slopes, [0.0] * pad),
-            "le": np.append(c.cum_energy, [c.cum_energy[-1]] * pad),
+            "le": np.append(le, [le[-1]] * pad),
         }
+        if self.fails:
+            self.params["dfail"] = np.asarray(dfail)
         u = spec.unloading
         if isinstance(u, Restitution):
             self.unload_kind = "restitution"
@@ -128,10 +150,13 @@ class HysteresisLaw:
     # ------------------------------------------------------------------ segments
     def _zero(self, xp) -> dict:
         z = xp.asarray(0.0)
-        return {"mode": xp.asarray(MODE_OPEN), "seg": xp.asarray(0), "da": z, "fa": z, "s": z,
-                "lo": xp.asarray(-BIG), "wl": xp.asarray(BIG), "hi": z, "vm": z, "dmax": z,
-                "fmax": z, "dperm": z, "ec": z, "dscale": z, "fscale": z, "er": z,
-                "status": xp.asarray(0)}
+        st = {"mode": xp.asarray(MODE_OPEN), "seg": xp.asarray(0), "da": z, "fa": z, "s": z,
+              "lo": xp.asarray(-BIG), "wl": xp.asarray(BIG), "hi": z, "vm": z, "dmax": z,
+              "fmax": z, "dperm": z, "ec": z, "dscale": z, "fscale": z, "er": z,
+              "status": xp.asarray(0)}
+        if self.fails:
+            st["failed"] = z
+        return st
 
     def _loading(self, st: dict, seg, p: dict, xp) -> dict:
         """Loading on segment ``seg`` of the loading curve."""
@@ -141,7 +166,10 @@ class HysteresisLaw:
                    vm=xp.asarray(1.0))
         if not self.extends:
             ended = seg >= self.n_load - 1
-            out["status"] = xp.where(ended, 1, st["status"])
+            code = xp.where(p["ld"][seg] >= p["dfail"], 5, 1) if self.fails else 1
+            out["status"] = xp.where(ended, code, st["status"])
+        if self.fails:  # on a piece at or past the failure point: failed (for good)
+            out["failed"] = xp.where(p["ld"][seg] >= p["dfail"], 1.0, st["failed"])
         return out
 
     def _loading_at(self, st: dict, D, p: dict, xp) -> dict:
@@ -190,10 +218,8 @@ class HysteresisLaw:
         touching = (D >= 0) & (Ddot > 0)
         return _sel(touching, self._loading_at(st, D, p, xp), self._open(st, xp), xp)
 
-    def _max_deformation(self, st: dict, D, p: dict, xp, size=None) -> dict:
-        """Common velocity reached: record (D_max, F_max) and switch to the unloading branch.
-        ``size`` [length]: the magnitude ``D`` was computed from (``|x_k| + |x_k+1| + gap``; its
-        rounding is the resolution of ``D``); default ``|D|``."""
+    def _max_deformation(self, st: dict, D, p: dict, xp) -> dict:
+        """Common velocity reached: record (D_max, F_max) and switch to the unloading branch."""
         seg = xp.clip(st["seg"], 0, self.n_load - 1)  # (also evaluated, unused, in other modes)
         F = self.force(D, 0.0, st)
         x = D - p["ld"][seg]
@@ -219,20 +245,14 @@ class HysteresisLaw:
         # backend resolves, wres D_max; see REBOUND_RESOLUTION): separate at once.
         # (and a line so narrow that its slope F/dscale would overflow: e² below 1e-300)
         instant = (dscale <= p["wres"] * abs(D)) | (F <= 0) | (dscale <= 1e-300 * F)
-        if size is not None:
-            # a backend that integrates absolute positions resolves D only to the rounding of
-            # the positions it is computed from (``size``): a narrower rebound separates at once
-            instant = instant | (dscale <= 8.9e-16 * xp.maximum(abs(D), size))
         new_open = dict(new)
         new_open.update(dperm=D, dscale=xp.asarray(0.0), er=xp.asarray(0.0))
         return _sel(instant, self._open(new_open, xp),
                     self._unloading(new, xp.asarray(self.n_unload - 2), p, xp), xp)
 
-    def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np, mu=None, w=None,
-                 size=None) -> dict:
-        """Discrete state after event ``which`` (0 = lo, 1 = hi, 2 = vmax) at deformation ``D``;
-        ``size`` [length]: the magnitude ``D`` was computed from, for its rounding (a rebound
-        narrower than that separates at once: an integrator could not resolve it)."""
+    def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np, mu=None, w=None) -> dict:
+        """Discrete state after event ``which`` (0 = lo, 1 = hi, 2 = vmax) at deformation ``D``
+        (every backend resolves ``D`` to its own ulps: integrators in each segment's frame)."""
         mode, seg = st["mode"], st["seg"]
         loading, unloading = (mode == MODE_LOADING), (mode == MODE_UNLOADING)
         top, bottom = seg >= self.n_unload - 2, seg <= 0
@@ -249,13 +269,22 @@ class HysteresisLaw:
                   self._unloading(st, xp.clip(seg - 1, 0, self.n_unload - 2), p, xp), xp)
         lo = _sel(unloading, lo, st, xp)
         # vmax: common velocity while loading
-        vm = _sel(loading, self._max_deformation(st, D, p, xp, size), st, xp)
+        vm = _sel(loading, self._max_deformation(st, D, p, xp), st, xp)
         return _sel(which == 0, lo, _sel(which == 1, hi, vm, xp), xp)
 
     # ------------------------------------------------------------------ reporting
+    @classmethod
+    def event_name(cls, which: int, before: dict, after: dict) -> str:
+        """Name of what happened (for ``Result.events``); the loading reaching the failure
+        point of a post-failure curve is ``"failure"`` (``"<name>+failure"`` if something else
+        happened with it)."""
+        name = cls._event_name(which, before, after)
+        if float(after.get("failed", 0.0)) > float(before.get("failed", 0.0)):
+            return "failure" if name == "breakpoint" else name + "+failure"
+        return name
+
     @staticmethod
-    def event_name(which: int, before: dict, after: dict) -> str:
-        """Name of what happened (for ``Result.events``)."""
+    def _event_name(which: int, before: dict, after: dict) -> str:
         mb, ma = int(before["mode"]), int(after["mode"])
         if which == 2:
             return "max_deformation" if ma == MODE_UNLOADING else "max_deformation+separation"
@@ -468,10 +497,9 @@ class DampingLaw:
         st = self._zero(p, xp)
         return _sel((D >= 0) & (Ddot > 0), self._close(st, Ddot, p, xp, mu), st, xp)
 
-    def on_event(self, which, D, Ddot, st, p, xp=np, mu=1.0, w=0.0, size=None):
+    def on_event(self, which, D, Ddot, st, p, xp=np, mu=1.0, w=0.0):
         """State after event ``which`` (0 separate, 1 max compression, 2 close, 3 re-compress);
-        ``w`` is the contact's work integral ``∫F dD`` at the event [energy] (``size``: unused,
-        as :meth:`HysteresisLaw.on_event`)."""
+        ``w`` is the contact's work integral ``∫F dD`` at the event [energy]."""
         z, one = xp.asarray(0.0), xp.asarray(1.0)
         sep = dict(st)
         sep.update(mode=xp.asarray(MODE_OPEN), on=z, comp=z, dperm=D,
@@ -502,7 +530,7 @@ def make_law(contact, mu_pair: float = 1.0):
     ``mu_pair`` is the reduced mass of the two vehicles it joins [mass] (a Kelvin damping given
     as a restitution needs it)."""
     if isinstance(contact.law, Hysteresis):
-        return HysteresisLaw(contact.law)
+        return HysteresisLaw(contact.law, getattr(contact, "failure", None))
     if isinstance(contact.law, Damping):
         return DampingLaw(contact.law, mu_pair)
     raise TypeError(f"no contact law implements {type(contact.law).__name__}")

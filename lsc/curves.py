@@ -6,6 +6,13 @@ scene's unit system (m and N, or ft and lbf). It is piecewise linear: breakpoint
 increasing, ``d[0] = 0``) with forces ``f``, and beyond the last breakpoint either a straight line
 of slope ``end_slope`` (a linear curve is one breakpoint at the origin and ``end_slope = k``) or
 nothing (a measured table ends there).
+
+A bumper that fails continues on a post-failure curve: :meth:`Curve.splice` builds the loading
+curve it follows, which may have a vertical *step* at the failure point (the force jumps there,
+down or up). Such a curve repeats that deformation (``steps=True``); only :meth:`Curve.splice`
+makes one, and a user's table with a repeated deformation is still rejected. On a step the
+curve takes the force *after* it (:meth:`segment` picks the piece starting there), and
+:meth:`pieces` lists the pieces of positive width that a contact law steps through.
 """
 
 from __future__ import annotations
@@ -29,11 +36,15 @@ class Curve:
         Forces at the breakpoints [force], all ``>= 0``.
     end_slope : float or None
         Slope beyond ``d[-1]`` [force/length]; ``None`` if the curve ends at ``d[-1]``.
+    steps : bool
+        Allow vertical steps: a deformation repeated once (two consecutive points), the force
+        jumping from the first to the second. Set by :meth:`splice` only.
     """
 
     d: np.ndarray
     f: np.ndarray
     end_slope: float | None = None
+    steps: bool = False
 
     def __post_init__(self):
         d = np.asarray(self.d, dtype=float).reshape(-1)
@@ -45,9 +56,17 @@ class Curve:
         if d[0] != 0.0:
             raise ValueError(f"a curve starts at zero deformation (first point has deformation {d[0]:g})")
         if d.size > 1 and not np.all(np.diff(d) > 0):
-            i = int(np.argmax(~(np.diff(d) > 0))) + 1
-            raise ValueError(
-                f"deformations must be strictly increasing (point {i} has {d[i]:g} after {d[i - 1]:g})")
+            step = np.diff(d) >= 0
+            if self.steps and np.all(step):
+                flat = np.diff(d) == 0
+                if np.any(flat[1:] & flat[:-1]):
+                    raise ValueError("a step repeats a deformation once, not more")
+                if flat[-1] and self.end_slope is None:
+                    raise ValueError("a table does not end on a step")
+            else:
+                i = int(np.argmax(~(np.diff(d) > 0))) + 1
+                raise ValueError(f"deformations must be strictly increasing (point {i} has "
+                                 f"{d[i]:g} after {d[i - 1]:g})")
         if np.any(f < 0):
             i = int(np.argmax(f < 0))
             raise ValueError(f"forces must be >= 0: bumpers push, never pull (point {i} has {f[i]:g})")
@@ -106,10 +125,21 @@ class Curve:
 
     @property
     def slopes(self) -> np.ndarray:
-        """Slope of each segment [force/length]; the last entry is the end slope (nan if none)."""
-        inner = np.diff(self.f) / np.diff(self.d)
+        """Slope of each segment [force/length]; the last entry is the end slope (nan if none).
+        A step (a segment of zero width) has slope 0: no deformation lies on it."""
+        width = np.diff(self.d)
+        inner = np.divide(np.diff(self.f), width, out=np.zeros(width.size), where=width > 0)
         end = np.nan if self.end_slope is None else self.end_slope
         return np.append(inner, end)
+
+    def pieces(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The affine pieces a contact law steps through: start deformation [length], force at
+        the start [force], slope [force/length] (the last: the end slope, nan if none) and
+        energy absorbed up to the start [energy]. Equal to ``(d, f, slopes, cum_energy)`` for a
+        curve without steps; a step's first point (zero width) is left out, so the piece
+        after it starts at its own force."""
+        keep = np.append(np.diff(self.d) > 0, True)
+        return self.d[keep], self.f[keep], self.slopes[keep], self.cum_energy[keep]
 
     @property
     def cum_energy(self) -> np.ndarray:
@@ -162,7 +192,62 @@ class Curve:
         if not (np.isfinite(factor) and factor > 0):
             raise ValueError(f"a force scale must be a positive finite number, got {factor:g}")
         end = None if self.end_slope is None else self.end_slope * factor
-        return Curve(self.d, self.f * factor, end)
+        return Curve(self.d, self.f * factor, end, self.steps)
+
+    # ----------------------------------------------------------------- failure
+    def failure_deformation(self, force: float) -> float:
+        """Deformation ``D_f`` [length] where this loading curve first reaches ``force`` [force]
+        (``inf`` if it never does): on loading ``D`` only grows, so this is where a bumper with
+        that failure force fails."""
+        F = float(force)
+        at = np.nonzero(self.f >= F)[0]
+        if at.size:
+            i = int(at[0])
+            if i == 0 or self.f[i] == F:
+                return float(self.d[i])
+            return float(self.d[i - 1] + (F - self.f[i - 1]) / (self.f[i] - self.f[i - 1])
+                         * (self.d[i] - self.d[i - 1]))
+        if self.end_slope is not None and self.end_slope > 0:
+            return float(self.d[-1] + (F - self.f[-1]) / self.end_slope)
+        return np.inf
+
+    def splice(self, force: float, post: "Curve") -> tuple["Curve", float]:
+        """The loading curve of a bumper that fails at ``force`` [force] and then loads along
+        ``post``: this curve up to ``D_f`` (:meth:`failure_deformation`), then
+        ``F = post.force(D - D_f)``. The force steps at ``D_f`` from ``force`` to ``post.f[0]``
+        (down or up; no step when they are equal); the result extends if ``post`` does.
+
+        Returns ``(curve, D_f)``; ``(self, inf)`` when this curve never reaches ``force`` (the
+        post-failure curve is never used). ``ValueError`` if the curve starts at or above
+        ``force`` (it would fail at first touch: the post-failure curve *is* the loading) or
+        if ``post`` cannot be placed at ``D_f`` in float64 (its first points closer together
+        than the rounding of ``D_f``)."""
+        if self.steps or post.steps:
+            raise ValueError("only a curve without steps is spliced")
+        F = float(force)
+        if not F > self.f[0]:
+            raise ValueError(
+                f"the loading curve starts at or above the failure force ({self.f[0]:g} >= {F:g}): "
+                "the bumper would fail at first touch and the post-failure curve replace the "
+                "loading curve entirely; give that curve as the loading instead")
+        df = self.failure_deformation(F)
+        if not np.isfinite(df):
+            return self, np.inf
+        before = self.d < df
+        n = int(np.sum(before))  # index of the failure point
+        d = np.concatenate([self.d[before], [df], df + post.d])
+        f = np.concatenate([self.f[before], [F], post.f])
+        step = post.f[0] != F
+        if not step:  # one point at D_f
+            d, f = np.delete(d, n + 1), np.delete(f, n + 1)
+        width = np.diff(d)
+        if step:
+            width = np.delete(width, n)
+        if not np.all(width > 0):
+            raise ValueError(
+                f"the post-failure curve cannot be placed at the failure deformation {df:g}: its "
+                "first points are closer together than the rounding of that deformation")
+        return Curve(d, f, post.end_slope, True), float(df)
 
     # ----------------------------------------------------------------- series
     @property
@@ -201,6 +286,9 @@ class Curve:
         Both curves must be non-decreasing. For two lines the result is the line of slope
         ``1/(1/S_a + 1/S_b)``; otherwise a table up to the lower of the two curves' top forces.
         """
+        if a.steps or b.steps:
+            raise ValueError("a curve with a step (a spliced post-failure curve) is not combined "
+                             "in series")
         for name, c in (("first", a), ("second", b)):
             if np.any(np.diff(c.f) < 0) or (c.end_slope is not None and c.end_slope <= 0):
                 raise ValueError(
@@ -210,7 +298,8 @@ class Curve:
             return Curve.linear(1.0 / (1.0 / a.stiffness + 1.0 / b.stiffness))
         top = min(a.f_top, b.f_top)
         if not top > 0:
-            raise ValueError("the two curves of a series never reach a common positive force")
+            raise ValueError("the two curves of a series never reach a common positive force; "
+                             "each must reach a positive force that the other also reaches")
         forces = np.union1d(a.f, b.f)
         forces = forces[forces <= top]
         if np.isfinite(top):
@@ -233,10 +322,13 @@ class Curve:
             if pts.shape[0] == 1:
                 return Curve(pts[:, 0], pts[:, 1], end)
         if pts.shape[0] < 2 and end is None:
-            raise ValueError("the two curves of a series never reach a common positive force")
+            raise ValueError("the two curves of a series never reach a common positive force; "
+                             "each must reach a positive force that the other also reaches")
         return Curve(pts[:, 0], pts[:, 1], end)
 
     def __repr__(self) -> str:
         if self.is_linear:
             return f"Curve.linear({self.end_slope:g})"
-        return f"Curve({self.d.size} points, D up to {self.d[-1]:g}, end_slope={self.end_slope})"
+        steps = ", steps" if self.steps else ""
+        return (f"Curve({self.d.size} points, D up to {self.d[-1]:g}, "
+                f"end_slope={self.end_slope}{steps})")

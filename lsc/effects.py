@@ -14,6 +14,10 @@ __all__ = ["BrakeEffect", "FailureEffect"]
 
 
 def _sel(cond, a: dict, b: dict, xp) -> dict:
+    """Field-wise ``where(cond, a, b)`` (a plain pick on NumPy with a scalar ``cond``)."""
+    if xp is np and np.ndim(cond) == 0:
+        src = a if cond else b
+        return {k: src[k] for k in a}
     return {k: xp.where(cond, a[k], b[k]) for k in a}
 
 
@@ -84,7 +88,9 @@ class BrakeEffect:
 
 class FailureEffect:
     """Bumper failure at contact ``k``: the event fires when the contact force first exceeds the
-    failure ``force`` [force]; the result reports whether and when."""
+    failure ``force`` [force]; the result reports whether and when. (A failure with a
+    post-failure curve is not this effect: the IF-D law follows the spliced curve and reports
+    the failure at its failure point, see :class:`~lsc.contact.HysteresisLaw`.)"""
 
     event_kinds = ("failure",)
 

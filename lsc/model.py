@@ -9,7 +9,8 @@ joins vehicles ``k`` and ``k+1``, its deformation is ``D_k = x_k - x_{k+1} - gap
 
 Only the effects a scene declares are assembled: one law object per contact (:mod:`lsc.contact`),
 a brake effect per braked vehicle and a failure effect per contact with a failure force
-(:mod:`lsc.effects`), and nothing else — the right-hand side evaluates no dormant term and
+(:mod:`lsc.effects`; with a post-failure curve the IF-D law follows the spliced curve and
+reports the failure itself), and nothing else — the right-hand side evaluates no dormant term and
 registers no dormant event. Every method takes the array namespace ``xp`` (``numpy`` or
 ``jax.numpy``), so all backends run this one copy of the physics.
 
@@ -23,7 +24,7 @@ import numpy as np
 
 from .contact import STATUS, make_law
 from .effects import BrakeEffect, FailureEffect
-from .errors import SceneError, SimulationError
+from .errors import SimulationError
 
 __all__ = ["HybridModel"]
 
@@ -55,16 +56,18 @@ class HybridModel:
         self.laws = [make_law(c, mu[k]) for k, c in enumerate(scene.contacts)]
         self.brakes = [BrakeEffect(i, v.brake, scene.g) for i, v in enumerate(scene.vehicles)
                        if v.brake is not None]
-        self.failures = []
-        for k, c in enumerate(scene.contacts):
-            if c.failure is not None:
-                if c.failure.post_failure is not None:
-                    raise SceneError(f"contacts[{k}].failure.post_failure",
-                                     "a post-failure loading branch is not simulated yet; remove "
-                                     "it (the failure force alone is reported)")
-                self.failures.append(FailureEffect(k, c.failure))
+        # A failure with a post-failure curve is the contact law's own (its loading curve is
+        # spliced at the failure point, where its breakpoint event is the failure); a failure
+        # force alone is an effect watching the contact force.
+        self.failures = [FailureEffect(k, c.failure) for k, c in enumerate(scene.contacts)
+                         if c.failure is not None and c.failure.post_failure is None]
         self.parts = [*self.laws, *self.brakes, *self.failures]
         self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
+        self._work_idx = np.asarray(self.work, dtype=int)
+        # incidence (N, K): contact k pushes vehicle k back and vehicle k+1 forward
+        self._incidence = np.zeros((N, self.K))
+        self._incidence[np.arange(self.K), np.arange(self.K)] = -1.0
+        self._incidence[np.arange(self.K) + 1, np.arange(self.K)] = 1.0
         self.n_state = 2 * N + len(self.work)
         self.params = {
             "m": m,
@@ -99,7 +102,7 @@ class HybridModel:
         mu = self._mu(p, xp)
         disc = [law.init(D[k], Dd[k], p["contacts"][k], xp, mu=mu[k])
                 for k, law in enumerate(self.laws)]
-        F = xp.stack([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
+        F = xp.asarray([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
         net = self.net_forces(F, xp)
         disc += [b.init(y0[self.N + b.i], net[b.i], p["m"][b.i], p["brakes"][j], xp)
                  for j, b in enumerate(self.brakes)]
@@ -110,12 +113,14 @@ class HybridModel:
     def forces(self, y, disc, p, xp=np):
         """Contact forces (K, ...) [force] in the frozen discrete state."""
         D, Dd = self.deformation(y, p, xp)
-        return xp.stack([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
+        # (asarray of the list stacks it, as xp.stack would, at a tenth of the cost on NumPy)
+        return xp.asarray([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
 
     def net_forces(self, F, xp=np):
-        """Net contact force on each vehicle (N, ...) [force] from the contact forces (K, ...)."""
-        z = xp.zeros((1,) + tuple(F.shape[1:]), dtype=F.dtype)
-        return xp.concatenate([z, F]) - xp.concatenate([F, z])
+        """Net contact force on each vehicle (N, ...) [force] from the contact forces (K, ...):
+        ``F_{i-1} - F_i``, through the incidence matrix built once (its entries are 0 and ±1, so
+        every product is exact and each sum rounds once, as the difference itself does)."""
+        return xp.matmul(self._incidence, F)
 
     def accelerations(self, y, disc, p, xp=np):
         """Contact forces (K, ...), net contact forces (N, ...) and accelerations (N, ...)."""
@@ -128,7 +133,7 @@ class HybridModel:
             off = self.K
             for j, b in enumerate(self.brakes):
                 acc[b.i] = b.accel(net[b.i], p["m"][b.i], disc[off + j], p["brakes"][j])
-            a = xp.stack(acc)
+            a = xp.asarray(acc)
         return F, net, a
 
     def rhs(self, t, y, disc, p, xp=np):
@@ -137,7 +142,7 @@ class HybridModel:
         parts = [y[self.N:2 * self.N], a]
         if self.work:
             _, Dd = self.deformation(y, p, xp)
-            parts.append(xp.stack([F[k] * Dd[k] for k in self.work]))
+            parts.append(F[self._work_idx] * Dd[self._work_idx])
         return xp.concatenate(parts)
 
     def event_values(self, t, y, disc, p, xp=np):
@@ -155,7 +160,7 @@ class HybridModel:
             off += len(self.brakes)
             for j, f in enumerate(self.failures):
                 vals.extend(f.events(F[f.k], disc[off + j], p["failures"][j]))
-        return xp.stack([xp.asarray(g, dtype=float) for g in vals])
+        return xp.asarray(vals, dtype=float)
 
     def active_events(self, disc) -> list[int]:
         """Indices of the events armed in this discrete state (NumPy backends skip the others)."""
@@ -167,18 +172,15 @@ class HybridModel:
         """The work integral of contact ``k`` in state ``y`` (0 if its law keeps none)."""
         return y[2 * self.N + self.work.index(k)] if k in self.work else 0.0
 
-    def apply_event(self, i: int, t, y, disc, p, xp=np, absolute: bool = False):
-        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged.
-        ``absolute``: the backend integrates absolute positions, so a deformation is resolved
-        only to the rounding of the positions it is computed from (the law is told their size)."""
+    def apply_event(self, i: int, t, y, disc, p, xp=np):
+        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged."""
         j, w = self.events[i]
         new = list(disc)
         if j < self.K:
             D, Dd = self.deformation(y, p, xp)
             mu = self._mu(p, xp)
-            size = (abs(y[j]) + abs(y[j + 1]) + abs(p["gap"][j])) if absolute else None
             new[j] = self.laws[j].on_event(w, D[j], Dd[j], disc[j], p["contacts"][j], xp,
-                                           mu=mu[j], w=self.work_of(y, j), size=size)
+                                           mu=mu[j], w=self.work_of(y, j))
             return new
         F, net, _ = self.accelerations(y, disc, p, xp)
         b = j - self.K
@@ -229,15 +231,16 @@ class HybridModel:
         return bool(np.all(Dd <= 1e-12 * self.v_scale))
 
     # ------------------------------------------------------------------ scales
-    def time_scale(self, slowest: bool = False) -> float:
+    def time_scale(self, slowest: bool = False, loading: bool = False) -> float:
         """A rough contact time [s] from the stiffest slope and the lightest pair (``slowest``:
-        from the softest slope and the heaviest pair)."""
+        from the softest slope and the heaviest pair; ``loading``: leaving out the IF-D laws'
+        unloading stiffnesses, for a motion with no contact unloading)."""
         m = self.params["m"]
         mus = m[:-1] * m[1:] / (m[:-1] + m[1:])
         mu = np.max(mus) if slowest else np.min(mus)
         slopes = []
         for law in self.laws:
-            for key in ("ls", "su", "k"):
+            for key in (("ls", "k") if loading else ("ls", "su", "k")):
                 val = np.asarray(law.params.get(key, []), float).reshape(-1)
                 slopes.extend(np.abs(val[np.isfinite(val)]))
         slopes = [s for s in slopes if s > 0] or [1.0]

@@ -35,6 +35,7 @@ _EVENT_STYLE = {
     "separation": ("separation", "-.", "s"),
     "reload_past_max": ("reload past max", ":", "D"),
     "breakpoint": ("table breakpoint", (0, (1, 4)), "."),
+    "failure": ("bumper failure", (0, (3, 1, 1, 1)), "x"),
 }
 _MAX_EVENT_LINES = 40  # beyond this many, table breakpoints are not drawn on the time plots
 

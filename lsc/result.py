@@ -51,11 +51,13 @@ class Result:
     Series: ``t`` (n,), ``x, v, a`` (n, N), ``deformation, force`` (n, K).
     Per vehicle (N,): ``delta_v, v_final, peak_acceleration`` (signed, largest magnitude),
     ``peak_acceleration_g``. Per contact (K,): ``max_deformation, permanent_deformation,
-    peak_force, restitution`` (velocity definition, Eq. 9), ``restitution_energy`` (energy
+    peak_force, restitution`` (velocity definition, Eq. 9, over the closing speed at t = 0: NaN
+    for a contact of a chain that was not closing then), ``restitution_energy`` (energy
     definition, Eq. 10: ``sqrt(returned / absorbed)``), ``energy_absorbed, energy_returned``.
     ``duration``: first contact to last separation [time]. ``failure_time`` (K,): when the
     contact force first exceeded the contact's failure force (NaN if never; ``failed`` says
-    which). ``events``: list of :class:`Event`.
+    which); with a post-failure curve, when the deformation first reached the failure point
+    ``D_f`` (where the loading curve reaches the failure force). ``events``: list of :class:`Event`.
     ``method``, ``tolerances`` (rtol, atol or dt) and ``stats`` (steps, rhs evaluations,
     segments, wall time [s]) say how it was computed.
     """
@@ -112,10 +114,6 @@ class Result:
         r.peak_force = np.max(r.force, axis=0) if r.force.size else np.zeros(len(contacts))
         r.energy_absorbed = np.array([c["ec"] for c in contacts], float)
         r.energy_returned = np.array([c["er"] for c in contacts], float)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            closing = v0[:-1] - v0[1:]
-            r.restitution = (r.v_final[1:] - r.v_final[:-1]) / closing
-            r.restitution_energy = np.sqrt(r.energy_returned / r.energy_absorbed)
         K = len(contacts)
         r.contact_time = np.full(K, np.nan)
         r.separation_time = np.full(K, np.nan)
@@ -124,12 +122,22 @@ class Result:
                 r.contact_time[ev.index] = ev.time
             if "separation" in ev.kind:
                 r.separation_time[ev.index] = ev.time
+        with np.errstate(invalid="ignore", divide="ignore"):
+            # Eq. 9, over the closing speed at t = 0; undefined (NaN, not ±inf) for a contact
+            # that was not closing then (in a chain, vehicles at rest in front: such a contact
+            # is closed by the crash behind it, its closing speed is whatever that makes it,
+            # from zero up); the energy definition holds for every contact that closed
+            closing = v0[:-1] - v0[1:]
+            closing = np.where(closing > 0, closing, np.nan)
+            r.restitution = (r.v_final[1:] - r.v_final[:-1]) / closing
+            r.restitution_energy = np.sqrt(r.energy_returned / r.energy_absorbed)
         # bumper failure: when the force first exceeded the failure force (NaN: never, or none set)
         r.failure_time = np.full(K, np.nan)
         for k, c in enumerate(scene.contacts):
             if c.failure is None:
                 continue
-            times = [ev.time for ev in r.events if ev.kind == "failure" and ev.index == k]
+            times = [ev.time for ev in r.events
+                     if "failure" in ev.kind.split("+") and ev.index == k]
             if times:
                 r.failure_time[k] = times[0]
             elif r.force.size and np.any(r.force[:, k] > c.failure.force):
@@ -217,6 +225,14 @@ class Result:
                          f"{self.max_deformation[k]:>10.5f} {self.permanent_deformation[k]:>10.5f} "
                          f"{self.peak_force[k]:>10.6g} {self.restitution[k]:>8.4f} "
                          f"{self.restitution_energy[k]:>10.4f}")
+        for k, c in enumerate(s.contacts):
+            if c.failure is None:
+                continue
+            force = f"{c.failure.force:.6g} {u['peak_force']}"
+            post = ", then the post-failure curve" if c.failure.post_failure is not None else ""
+            lines.append(f"bumper failure, contact {k} ({force}): "
+                         + (f"failed at t = {self.failure_time[k]:.6g} {u['failure_time']}{post}"
+                            if self.failed[k] else "not reached"))
         lines.append("")
         lines.append(f"pulse duration {self.duration:.6g} {u['duration']}; "
                      f"{len(self.events)} events; "

@@ -118,7 +118,12 @@ class Damping:
 @dataclass(frozen=True)
 class Failure:
     """Bumper failure: the contact ``force`` [force] above which a bumper is deemed to fail, and an
-    optional loading curve to follow after failure."""
+    optional loading curve ``post_failure`` to follow after failure (IF-D law only).
+
+    With ``post_failure`` the bumper fails where its loading curve first reaches ``force``, at
+    deformation ``D_f``; loading then goes on along ``post_failure`` counted from there,
+    ``F = post_failure(D - D_f)`` (the force may step at ``D_f``; see
+    :meth:`~lsc.curves.Curve.splice`)."""
 
     force: float
     post_failure: Curve | None = None
@@ -198,7 +203,7 @@ import os as _os
 import tomllib as _tomllib
 from collections.abc import Mapping as _Mapping
 
-from .units import _type_name, to_system as _to_system, unit_factor as _unit_factor
+from .units import _expected, _type_name, to_system as _to_system, unit_factor as _unit_factor
 
 #: Solver methods accepted in ``[solver] method``.
 METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
@@ -213,7 +218,8 @@ _UNLOADING_KINDS = ("restitution", "stiffness", "table")
 _UNLOADING_KEYS = _UNLOADING_KINDS + _COLUMN_KEYS
 _FAILURE_KEYS = ("force", "post_failure")
 _CONTACT_COMMON_KEYS = ("law", "gap", "failure")
-_SOLVER_KEYS = ("method", "rtol", "atol", "dt", "integrator", "t_end", "max_events")
+_SOLVER_KEYS = ("method", "rtol", "atol", "dt", "integrator", "t_end", "max_events", "max_steps",
+                "n_samples")
 _MAX_DEPTH = 64
 _MISSING = object()
 
@@ -309,7 +315,7 @@ def _qty(spec: dict, key: str, kind: str, ctx: _Ctx, path: str, *, default=_MISS
     p = _p(path, key)
     if key not in spec:
         if default is _MISSING:
-            raise SceneError(p, "is required")
+            raise SceneError(p, f"is required: {_expected(kind, ctx.units)}")
         return default
     x = _to_system(spec[key], kind, ctx.units, p, hint=hint)
     if minimum is not None and (x <= minimum if strict else x < minimum):
@@ -331,15 +337,16 @@ def _columns(spec: dict, ctx: _Ctx, path: str) -> tuple[float | None, float | No
 def _cell(value, kind: str, factor: float | None, ctx: _Ctx, path: str) -> float:
     t = type(value)
     if t is float or t is int:
+        fin = _expected(kind, ctx.units, "finite")
         try:
             x = float(value)
         except OverflowError:
-            raise SceneError(path, f"{value!r} is too large") from None
+            raise SceneError(path, f"{value!r} is too large; {fin}") from None
         if not _math.isfinite(x):
-            raise SceneError(path, f"{value!r} is not a finite number")
+            raise SceneError(path, f"{value!r} is not a finite number; {fin}")
         x *= 1.0 if factor is None else factor
         if not _math.isfinite(x):
-            raise SceneError(path, f"{value!r} is too large")
+            raise SceneError(path, f"{value!r} is too large; {fin}")
         return x
     if isinstance(value, str) and factor is not None:
         raise SceneError(path, f"give bare numbers when the column's unit is set (by the "
@@ -380,7 +387,9 @@ def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
     try:
         text = file.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
-        raise SceneError(path, f"file not found: {file}") from None
+        raise SceneError(path, f"file not found: {file} (expected a CSV file of two columns, "
+                               "deformation and force; a relative path is taken from the scene "
+                               "file's folder)") from None
     except UnicodeDecodeError:
         raise SceneError(path, f"{file} is not a text (CSV) file") from None
     except (OSError, ValueError) as e:
@@ -410,9 +419,11 @@ def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
                                    f"got {len(cells)}")
         for c, x in zip(cells, nums):
             if x is None:
-                raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a number')
+                raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a number; expected '
+                                       "two numeric columns (deformation, force)")
             if not _math.isfinite(x):
-                raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a finite number')
+                raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a finite number; '
+                                       "expected two finite numeric columns (deformation, force)")
         rows.append(nums)
     if not rows:
         raise SceneError(path, f"{file} has no data rows (expected two columns: deformation, force)")
@@ -615,7 +626,18 @@ def _contact(spec, k: int, ctx: _Ctx) -> Contact:
         fp = _p(path, "failure")
         fspec = _table(spec["failure"], fp, _FAILURE_KEYS, '{ force = "5000 lbf" }')
         force = _qty(fspec, "force", "force", ctx, fp, minimum=0.0)
-        post = _loading(fspec["post_failure"], _p(fp, "post_failure"), ctx) if "post_failure" in fspec else None
+        post = None
+        if "post_failure" in fspec:
+            pp = _p(fp, "post_failure")
+            if not isinstance(model, Hysteresis):
+                raise SceneError(pp, f'a post-failure loading curve applies to the IF-D law (the '
+                                     f'default, law = "hysteresis"), not to law = "{model.name}"; '
+                                     f'remove it (the failure force alone is reported)')
+            post = _loading(fspec["post_failure"], pp, ctx)
+            try:
+                model.loading.splice(force, post)
+            except ValueError as e:
+                raise SceneError(pp, str(e)) from None
         failure = Failure(force, post)
     return Contact(model, gap, failure)
 
@@ -669,11 +691,12 @@ def _solver(spec, ctx: _Ctx) -> SolverSettings:
         if not isinstance(name, str) or not name.strip():
             raise SceneError(_p(path, "integrator"), f"an integrator is a name (e.g. \"DOP853\"), got {_shown(name)}")
         options["integrator"] = name.strip()
-    if "max_events" in spec:
-        n = _qty(spec, "max_events", "dimensionless", ctx, path, minimum=0.0)
-        if n != int(n):
-            raise SceneError(_p(path, "max_events"), f"must be a whole number, got {n:g}")
-        options["max_events"] = int(n)
+    for key in ("max_events", "max_steps", "n_samples"):
+        if key in spec:
+            n = _qty(spec, key, "dimensionless", ctx, path, minimum=0.0)
+            if n != int(n):
+                raise SceneError(_p(path, key), f"must be a whole number >= 1, got {n:g}")
+            options[key] = int(n)
     return SolverSettings(method, options)
 
 

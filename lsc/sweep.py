@@ -213,6 +213,9 @@ def _fast_setter(scene: Scene, path: str):
                 return None
             law = scene.contacts[k].law
             tail = parts[2:]
+            fail = scene.contacts[k].failure
+            if tail[0] == "loading" and fail is not None and fail.post_failure is not None:
+                return None  # the failure point moves with the loading curve: re-load
             if tail == ["gap"]:
                 return lambda p, v: p["gap"].__setitem__((slice(None), k), v)
             if tail == ["unloading", "restitution"] and isinstance(law.unloading, Restitution):
@@ -393,8 +396,11 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     if backend == "closed-form" and fast:
         _closed_form_batch(base, values, setters, ok, metrics)
     elif (backend == "exact" and fast and not set(opts) - {"n_samples"}
-          and not any(v.brake is not None for v in base.vehicles)):
-        # (the vectorised exact stepper has no friction: braked scenes are solved one by one)
+          and not any(v.brake is not None for v in base.vehicles)
+          and not any(c.failure is not None and c.failure.post_failure is not None
+                      for c in base.contacts)):
+        # (the vectorised exact stepper has no friction and no post-failure curve: such scenes
+        # are solved one by one)
         _exact_batch(base, values, setters, ok, metrics, status)
     elif backend == "diffrax" and fast and _have_diffrax():
         _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, chunk,

@@ -115,11 +115,12 @@ def _a(kind: str) -> str:
     return f"an {kind}" if kind[0] in "aeiou" else f"a {kind}"
 
 
-def _expected(kind: str, system: str) -> str:
+def _expected(kind: str, system: str, adjective: str = "") -> str:
     ex = ", ".join(f'"{e}"' for e in KIND_EXAMPLES[kind])
     if kind == "dimensionless":
-        return f"expected a plain number (e.g. {ex})"
-    return f"expected {_a(kind)} (e.g. {ex} or a bare number in {_target(kind, system)})"
+        return f"expected a {adjective + ' ' if adjective else ''}plain number (e.g. {ex})"
+    what = f"a {adjective} {kind}" if adjective else _a(kind)
+    return f"expected {what} (e.g. {ex} or a bare number in {_target(kind, system)})"
 
 
 def _factor(unit: str, kind: str, system: str, shown: str, path: str, hint: str | None) -> float:
@@ -159,11 +160,12 @@ def _is_number(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool) and type(value).__name__ != "bool_"
 
 
-def _check_finite(x: float, value, path: str) -> float:
+def _check_finite(x: float, value, path: str, kind: str, system: str) -> float:
     if not math.isfinite(x):
         if isinstance(value, str):
-            raise SceneError(path, f'"{value}" is too large')
-        raise SceneError(path, f"{value!r} is not a finite number")
+            raise SceneError(path, f'"{value}" is too large; {_expected(kind, system, "finite")}')
+        raise SceneError(path, f"{value!r} is not a finite number; "
+                               f"{_expected(kind, system, 'finite')}")
     return x
 
 
@@ -180,9 +182,11 @@ def to_system(value, kind: str, system: str, path: str, *, hint: str | None = No
         try:
             x = float(value)
         except (OverflowError, ValueError):
-            raise SceneError(path, f"{value!r} is too large") from None
+            raise SceneError(path, f"{value!r} is too large; "
+                                   f"{_expected(kind, system, 'finite')}") from None
         if not math.isfinite(x):
-            raise SceneError(path, f"{value!r} is not a finite number")
+            raise SceneError(path, f"{value!r} is not a finite number; "
+                                   f"{_expected(kind, system, 'finite')}")
         return x
     if isinstance(value, str):
         m = _NUMBER.fullmatch(value)
@@ -192,12 +196,13 @@ def to_system(value, kind: str, system: str, path: str, *, hint: str | None = No
         x = float(m.group(1))
         unit = m.group(2)
         if not math.isfinite(x):
-            raise SceneError(path, f'"{value}" is not a finite number')
+            raise SceneError(path, f'"{value}" is not a finite number; '
+                                   f'{_expected(kind, system, "finite")}')
         if unit:
             if unit[0] == "*":  # "10 * ft/s"
                 unit = unit[1:].strip()
             x = x * _factor(unit, kind, system, value.strip(), path, hint)
-        return _check_finite(x, value, path)
+        return _check_finite(x, value, path, kind, system)
     if hasattr(value, "magnitude") and hasattr(value, "units"):  # a pint Quantity
         try:
             mag = float(value.magnitude)
@@ -205,11 +210,12 @@ def to_system(value, kind: str, system: str, path: str, *, hint: str | None = No
         except Exception:
             raise SceneError(path, f"cannot read {value!r} as a number") from None
         if not math.isfinite(mag):
-            raise SceneError(path, f"{value!r} is not a finite number")
+            raise SceneError(path, f"{value!r} is not a finite number; "
+                                   f"{_expected(kind, system, 'finite')}")
         value = f"{value}"
         unit = "" if unit == "dimensionless" else unit
         x = mag * _factor(unit, kind, system, f"{mag:g} {unit}".strip(), path, hint)
-        return _check_finite(x, value, path)
+        return _check_finite(x, value, path, kind, system)
     raise SceneError(path, f"{_type_name(value)} is not a quantity; {_expected(kind, system)}")
 
 

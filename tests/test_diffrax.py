@@ -126,6 +126,19 @@ def test_same_structure_does_not_retrace_or_recompile():
     assert _rel(ra.delta_v, rb.delta_v) > 0.1
 
 
+def test_a_solve_that_fills_the_small_record_runs_again_with_the_full_one(monkeypatch):
+    model = _model(two_cars(1500.0, 900.0, 4.0, 0.0, {"stiffness": 30000.0}, {"restitution": 0.6}))
+    full = dx.solve(model, integrator="Tsit5", rtol=1e-10, max_steps=64)
+    assert full.stats["steps"] > 16
+    monkeypatch.setattr(dx, "RECORD_NODES", 16)   # fewer nodes than the solve's steps
+    r = dx.solve(model, integrator="Tsit5", rtol=1e-10, max_steps=64)
+    assert any(key[1:] == ("Tsit5", 64, 256, 16) for key in dx._CORES)  # it was tried first
+    assert r.stats["steps"] == full.stats["steps"]
+    for name in METRICS:
+        assert np.array_equal(getattr(r, name), getattr(full, name)), name
+    assert np.array_equal(r.v, full.v) and np.array_equal(r.t, full.t)
+
+
 @pytest.mark.parametrize("integrator", dx.INTEGRATORS)
 def test_every_integrator_reaches_its_tolerance(integrator):
     model = _model(two_cars(1500.0, 900.0, 4.0, 0.0, {"stiffness": 30000.0}, {"restitution": 0.6}))

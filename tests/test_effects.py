@@ -188,6 +188,280 @@ def test_failure_force_reported_with_its_time():
     assert not lsc.solve(lower).failed[0]
 
 
+# ------------------------------------------------------------------ post-failure loading
+# Linear loading k1 failing at FF, then the post-failure line F = F0 + K2 (D - D_f) with
+# F0 = FF/2: the force drops by half at D_f (SI: m, N, kg).
+K1, FF, K2, F0, E_PF = 2.0e5, 2.0e4, 5.0e4, 1.0e4, 0.3
+PF_LINE = {"table": [[0.0, F0], [1.0, F0 + K2]]}
+
+
+def post_failure(post=PF_LINE, v1=4.0, v2=0.5, loading=None, e=E_PF, failure=FF, **extra):
+    c = {"loading": loading or {"stiffness": K1}, "unloading": {"restitution": e},
+         "failure": {"force": failure, **({} if post is None else {"post_failure": post})}}
+    return {"units": "SI", "vehicles": [{"mass": M1, "speed": v1}, {"mass": M2, "speed": v2}],
+            "contacts": [c], **extra}
+
+
+def solve_all(scene, methods=("exact", "scipy", "diffrax")):
+    """Each backend at its tightest (diffrax only where installed)."""
+    out = {}
+    for m in methods:
+        if m == "diffrax":
+            pytest.importorskip("diffrax")
+            out[m] = lsc.solve(scene, method=m, integrator="Dopri8", rtol=1e-13)
+        elif m == "scipy":
+            out[m] = lsc.solve(scene, method=m, integrator="DOP853", rtol=1e-12)
+        else:
+            out[m] = lsc.solve(scene, method=m)
+    return out
+
+
+def post_failure_closed_form(v0, m1=M1, m2=M2, e=E_PF):
+    """Hand-derived two-car crash on the spliced curve: energy gives D_max, the harmonic
+    motion on each straight piece gives the times."""
+    mu = m1 * m2 / (m1 + m2)
+    E0 = 0.5 * mu * v0 ** 2
+    Df = FF / K1
+    Ef = 0.5 * FF * Df
+    # area under the spliced curve up to D_max equals E0: Ef + F0 x + K2 x²/2 = E0
+    x = 2.0 * (E0 - Ef) / (F0 + np.sqrt(F0 ** 2 + 2.0 * K2 * (E0 - Ef)))
+    Dmax, Fmax = Df + x, F0 + K2 * x
+    Dperm = Dmax - 2.0 * e ** 2 * E0 / Fmax
+    w1, w2 = np.sqrt(K1 / mu), np.sqrt(K2 / mu)
+    t_fail = np.arcsin(Df * w1 / v0) / w1
+    wf = np.sqrt(v0 ** 2 - (w1 * Df) ** 2)             # closing speed at failure
+    t_max = t_fail + np.arctan2(wf / w2, F0 / K2) / w2  # u = x + F0/K2 is harmonic
+    wu = np.sqrt(Fmax / (Dmax - Dperm) / mu)            # the unloading line's frequency
+    return {"Df": Df, "max_deformation": Dmax, "peak_force": max(Fmax, FF), "Fmax": Fmax,
+            "permanent_deformation": Dperm, "energy_absorbed": E0,
+            "energy_returned": e ** 2 * E0, "restitution": e, "restitution_energy": e,
+            "delta_v": np.array([-(1 + e) * m2 * v0 / (m1 + m2), (1 + e) * m1 * v0 / (m1 + m2)]),
+            "failure_time": t_fail, "t_max": t_max, "duration": t_max + 0.5 * np.pi / wu}
+
+
+def _close(a, b, tol, what):
+    a, b = np.atleast_1d(np.asarray(a, float)), np.atleast_1d(np.asarray(b, float))
+    err = np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300))
+    assert err <= tol, f"{what}: {a} vs {b} (rel {err:.2e})"
+
+
+@pytest.mark.parametrize("method", ["exact", "scipy", "diffrax"])
+def test_post_failure_force_drop_against_hand_closed_form(method):
+    r = solve_all(post_failure(), (method,))[method]
+    cf = post_failure_closed_form(3.5)
+    assert cf["Fmax"] < FF  # the force drop matters: the peak is the failure force itself
+    for name in ("max_deformation", "peak_force", "permanent_deformation", "energy_absorbed",
+                 "energy_returned", "restitution", "restitution_energy", "delta_v",
+                 "failure_time", "duration"):
+        _close(getattr(r, name), cf[name], 1e-9, name)
+    assert r.failed[0]
+    kinds = [ev.kind for ev in r.events]
+    assert kinds == ["contact", "failure", "max_deformation", "separation"]
+    _close([ev.time for ev in r.events if ev.kind == "max_deformation"], cf["t_max"], 1e-9,
+           "time of max deformation")
+    # the force steps from FF down to F0 at the failure point
+    Fb = r.force[r.t == r.failure_time[0], 0]
+    assert np.sort(Fb) == pytest.approx([F0, FF], rel=1e-9)
+
+
+@pytest.mark.parametrize("method", ["exact", "scipy", "diffrax"])
+def test_post_failure_conserves_momentum_and_balances_energy(method):
+    r = solve_all(post_failure(), (method,))[method]
+    m = np.array([M1, M2])
+    v0 = np.array([4.0, 0.5])
+    p0 = m @ v0
+    assert abs(m @ r.v_final - p0) <= 1e-12 * p0
+    assert np.max(np.abs(r.v @ m - p0)) <= 1e-12 * p0
+    lost = 0.5 * m @ v0 ** 2 - 0.5 * m @ r.v_final ** 2
+    _close(lost, r.energy_absorbed[0] - r.energy_returned[0], 1e-10, "energy balance")
+    # absorbed = the area under the spliced curve up to D_max (the law's own curve)
+    curve = HybridModel(lsc.Scene.load(post_failure())).laws[0].loading
+    _close(r.energy_absorbed, curve.energy(r.max_deformation[0]), 1e-12, "area")
+
+
+@pytest.mark.parametrize("method", ["exact", "scipy", "diffrax"])
+def test_post_failure_not_reached_changes_nothing(method):
+    slow = post_failure(v1=1.5)   # closing at 1 m/s: F_max = 1 * sqrt(K1 mu) < FF
+    with_pf = solve_all(slow, (method,))[method]
+    without = solve_all(post_failure(None, v1=1.5), (method,))[method]
+    assert not with_pf.failed[0] and not without.failed[0]
+    assert with_pf.peak_force[0] < FF
+    for name in ("delta_v", "max_deformation", "permanent_deformation", "peak_force", "duration",
+                 "energy_absorbed", "energy_returned", "restitution"):
+        _close(getattr(with_pf, name), getattr(without, name), 1e-12, name)
+    assert [ev.kind for ev in with_pf.events] == [ev.kind for ev in without.events]
+
+
+# a measured-like loading that reaches the failure force inside a segment, then post-failure
+# tables starting below it (a drop) and above it (a jump, then a falling piece)
+PF_LOADING = {"table": [[0, 0], [0.05, 8000], [0.12, 20000], [0.3, 26000]]}
+PF_DOWN = {"table": [[0, 6000], [0.05, 9000], [0.5, 40000]]}
+PF_UP = {"table": [[0, 24000], [0.08, 21000], [0.5, 45000]]}
+
+
+@pytest.mark.parametrize("post", [PF_DOWN, PF_UP], ids=["jump-down", "jump-up"])
+def test_post_failure_tables_agree_across_backends(post):
+    scene = post_failure(post, v1=5.0, v2=0.0, loading=PF_LOADING, failure=18000.0)
+    scene["contacts"][0]["unloading"] = {"table": [[0.4, 30000], [0.35, 12000], [0.3, 0]]}
+    rs = solve_all(scene)
+    ex = rs["exact"]
+    Df = 0.05 + (18000 - 8000) / 12000 * 0.07
+    assert ex.failed[0] and ex.max_deformation[0] > Df + 0.08  # past the falling piece
+    for m, r in rs.items():
+        assert [ev.kind for ev in r.events] == [ev.kind for ev in ex.events], m
+        for name in ("delta_v", "max_deformation", "permanent_deformation", "peak_force",
+                     "failure_time", "duration", "energy_absorbed", "restitution_energy"):
+            _close(getattr(r, name), getattr(ex, name), 1e-9, f"{m} {name}")
+    jump = post["table"][0][1]
+    Fb = ex.force[ex.t == ex.failure_time[0], 0]
+    assert np.sort(Fb) == pytest.approx(sorted([18000.0, jump]), rel=1e-12)
+    assert ex.peak_force[0] == pytest.approx(max(18000.0, jump, np.max(ex.force)), rel=1e-12)
+
+
+@pytest.mark.parametrize("method", ["exact", "scipy", "diffrax"])
+def test_failure_time_is_when_the_deformation_first_reaches_the_failure_point(method):
+    scene = post_failure(PF_DOWN, v1=5.0, v2=0.0, loading=PF_LOADING, failure=18000.0)
+    r = solve_all(scene, (method,))[method]
+    Df = 0.05 + (18000 - 8000) / 12000 * 0.07
+    tf = r.failure_time[0]
+    at = np.nonzero(r.t == tf)[0]
+    assert at.size == 2  # the end of the segment before the failure and the start of the next
+    assert r.deformation[at, 0] == pytest.approx([Df, Df], rel=1e-10)
+    assert np.all(r.deformation[r.t < tf, 0] < Df)
+    # the time itself: the exact backend's, and the closed form's on the linear loading
+    ref = lsc.solve(scene, method="exact").failure_time[0]
+    _close(tf, ref, 1e-10, "failure time")
+    lin = solve_all(post_failure(), (method,))[method]
+    _close(lin.failure_time, post_failure_closed_form(3.5)["failure_time"], 1e-9, "linear")
+
+
+def test_post_failure_stiffness_extends_and_a_table_that_ends_says_so():
+    # a stiffness: F = K2 (D - D_f) after the failure, the force dropping to zero there
+    r = lsc.solve(post_failure({"stiffness": K2}), method="exact")
+    mu = M1 * M2 / (M1 + M2)
+    Df = FF / K1
+    x = np.sqrt(2 * (0.5 * mu * 3.5 ** 2 - 0.5 * FF * Df) / K2)
+    assert r.max_deformation[0] == pytest.approx(Df + x, rel=1e-12)
+    assert lsc.solve(post_failure({"stiffness": K2})).method == "exact"  # auto
+    assert f"failed at t = {r.failure_time[0]:.6g} s, then the post-failure curve" in r.summary()
+    assert "(20000 N): not reached" in lsc.solve(post_failure(v1=1.5)).summary()
+    short = post_failure({"table": [[0, F0], [0.1, F0 + 0.1 * K2]]})
+    for method in ("exact", "scipy"):
+        with pytest.raises(lsc.SimulationError, match="post-failure loading table ends"):
+            lsc.solve(short, method=method)
+
+
+def test_post_failure_in_a_chain_that_reloads_balances_momentum_and_energy():
+    pf = {"force": 12000, "post_failure": {"table": [[0, 6000], [0.05, 9000], [1.0, 60000]]}}
+    m = np.array([2000.0, 300.0, 2000.0])
+    scene = {"units": "SI",
+             "vehicles": [{"mass": mi, "speed": v} for mi, v in zip(m, (5.0, 0.0, 0.0))],
+             "contacts": [{"loading": {"stiffness": 1e5}, "unloading": {"restitution": 0.5},
+                           "failure": pf},
+                          {"loading": {"table": [[0, 0], [0.1, 10000], [0.3, 14000]]},
+                           "unloading": {"restitution": 0.5}, "failure": pf}]}
+    r = lsc.solve(scene, method="scipy", rtol=1e-11)
+    kinds = [ev.kind for ev in r.events]
+    assert kinds.count("failure") == 2 and "reload_past_max" in kinds
+    assert np.all(r.failed)
+    assert abs(m @ r.v_final - 1e4) <= 1e-12 * 1e4
+    lost = 0.5 * m[0] * 25.0 - 0.5 * m @ r.v_final ** 2
+    _close(lost, np.sum(r.energy_absorbed - r.energy_returned), 1e-9, "energy balance")
+
+
+def test_post_failure_reference_and_closed_form_refuse_with_their_reason():
+    for method, reason in (("reference", "post-failure"), ("closed-form", "post-failure")):
+        with pytest.raises(lsc.SceneError, match=reason):
+            lsc.solve(post_failure({"stiffness": K2}), method=method)
+
+
+def test_post_failure_sweep_matches_single_solves():
+    scene = post_failure(PF_DOWN, v1=5.0, v2=0.0, loading=PF_LOADING, failure=18000.0)
+    speeds = [1.5, 5.0, 6.0]
+    s = lsc.sweep(scene, {"vehicles.0.speed": speeds})  # (1.5 m/s stops short of D_f)
+    assert s.method == "exact" and list(s.status) == ["ok"] * 3
+    for j, v in enumerate(speeds):
+        r = lsc.solve(lsc.Scene.load(scene).with_values({"vehicles.0.speed": v}), method="exact")
+        for name in ("failure_time", "max_deformation", "delta_v"):
+            np.testing.assert_allclose(s.metrics[name][j], getattr(r, name), rtol=1e-12)
+    assert np.isnan(s.metrics["failure_time"][0, 0]) and np.all(s.metrics["failure_time"][1:] > 0)
+    # a loading scale moves the failure point: each member is re-loaded, not rescaled
+    t = lsc.sweep(scene, {"contacts.0.loading.scale": [0.9, 1.1]})
+    for j, c in enumerate((0.9, 1.1)):
+        r = lsc.solve(lsc.Scene.load(scene).with_values({"contacts.0.loading.scale": c}))
+        np.testing.assert_allclose(t.metrics["max_deformation"][j], r.max_deformation, rtol=1e-12)
+
+
+def test_post_failure_diffrax_batch_reports_the_failure_time():
+    pytest.importorskip("diffrax")
+    scene = post_failure(PF_DOWN, v1=5.0, v2=0.0, loading=PF_LOADING, failure=18000.0)
+    speeds = [2.0, 5.0, 6.0]
+    s = lsc.sweep(scene, {"vehicles.0.speed": speeds}, method="diffrax", rtol=1e-12)
+    for j, v in enumerate(speeds):
+        r = lsc.solve(lsc.Scene.load(scene).with_values({"vehicles.0.speed": v}), method="exact")
+        np.testing.assert_allclose(s.metrics["failure_time"][j], r.failure_time, rtol=1e-9)
+        np.testing.assert_allclose(s.metrics["max_deformation"][j], r.max_deformation, rtol=1e-9)
+
+
+@pytest.mark.parametrize("post, path", [
+    ({"table": [[0, 1000], [0, 2000]]}, "contacts[0].failure.post_failure.table"),
+    ({"table": [[0, 1000], [0.1, -5]]}, "contacts[0].failure.post_failure.table"),
+    ({"table": [[0.1, 1000], [0.2, 2000]]}, "contacts[0].failure.post_failure.table"),
+    ({"stiffness": -1}, "contacts[0].failure.post_failure.stiffness"),
+    ({"tabel": [[0, 0], [1, 1]]}, "contacts[0].failure.post_failure.tabel"),
+])
+def test_post_failure_bad_curve_is_a_scene_error_with_its_path(post, path):
+    with pytest.raises(lsc.SceneError) as err:
+        lsc.Scene.load(post_failure(post))
+    assert err.value.path == path
+
+
+def test_post_failure_loader_rules():
+    # only the IF-D law has a loading curve to continue
+    kelvin = post_failure()
+    kelvin["contacts"][0] = {"law": "kelvin", "stiffness": K1, "restitution": 0.4,
+                             "failure": {"force": FF, "post_failure": PF_LINE}}
+    with pytest.raises(lsc.SceneError, match="IF-D") as err:
+        lsc.Scene.load(kelvin)
+    assert err.value.path == "contacts[0].failure.post_failure"
+    # a loading curve that starts at or above the failure force fails at first touch
+    with pytest.raises(lsc.SceneError, match="first touch"):
+        lsc.Scene.load(post_failure(loading={"table": [[0, 30000], [1, 40000]]}))
+    # a loading curve that never reaches the failure force never uses the post-failure curve
+    low = post_failure(loading={"table": [[0, 0], [0.5, 15000]]}, v1=2.0)
+    model = HybridModel(lsc.Scene.load(low))
+    assert model.laws[0].loading.d.size == 2 and not np.isfinite(model.params["contacts"][0]["dfail"])
+    r = lsc.solve(low, method="exact")
+    assert not r.failed[0]
+
+
+def test_spliced_curve_methods_on_a_step():
+    from lsc.curves import Curve
+
+    c, Df = Curve.linear(K1).splice(FF, Curve.table([[0, F0], [1, F0 + K2]]))
+    assert Df == pytest.approx(0.1, rel=1e-15) and c.steps and not c.extends
+    np.testing.assert_allclose(c.force([0.05, Df, 0.3, 1.1]), [1e4, F0, F0 + 0.2 * K2, F0 + K2])
+    assert np.isnan(c.force(1.2))
+    np.testing.assert_allclose(c.energy([Df, 0.3]), [1000.0, 1000.0 + 0.2 * F0 + 0.02 * K2])
+    assert c.deformation_at(15000.0) == pytest.approx(0.075)   # on the virgin line
+    assert c.deformation_at(FF) == pytest.approx(Df)
+    assert c.f_top == F0 + K2
+    d, f, s, e = c.pieces()  # the step's zero-width segment is left out
+    np.testing.assert_allclose(d, [0, Df, 1 + Df])
+    np.testing.assert_allclose(f, [0, F0, F0 + K2])
+    np.testing.assert_allclose(s[:2], [K1, K2])
+    np.testing.assert_allclose(e, [0, 1000.0, 1000.0 + F0 + 0.5 * K2])
+    assert c.scaled(2.0).steps and c.scaled(2.0).force(0.3) == pytest.approx(2 * c.force(0.3))
+    with pytest.raises(ValueError, match="series"):
+        Curve.series(c, Curve.linear(K1))
+    with pytest.raises(ValueError, match="strictly increasing"):
+        Curve([0, 1, 1, 2], [0, 1, 2, 3])   # only a splice makes a step
+    up, _ = Curve.linear(K1).splice(FF, Curve.linear(K2))
+    assert up.extends and up.force(0.2) == pytest.approx(K2 * 0.1)
+    never, d_inf = Curve.table([[0, 0], [1, 100]]).splice(FF, Curve.linear(K2))
+    assert not never.steps and d_inf == np.inf
+
+
 # ------------------------------------------------------------------ chains
 def chain(gap2=0.0, e=1.0, v0=2.0, masses=(1200.0, 1200.0, 1200.0), k=1.0e5):
     return {"units": "SI",

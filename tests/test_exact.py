@@ -5,7 +5,7 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 import lsc
@@ -740,8 +740,22 @@ def braked_scenes(draw):
                         gap=draw(st.sampled_from([0.0, 0.03])))
 
 
+def _held_target(m1, v1, mu):
+    return {"units": "SI", "g": 9.81,
+            "vehicles": [{"mass": m1, "speed": v1},
+                         {"mass": 1000.0 if m1 > 1000 else 500.0, "speed": -0.5,
+                          "brake": {"mu": mu, "mu_static": mu}}],
+            "contacts": [{"loading": {"stiffness": 200000.0},
+                          "unloading": {"stiffness": 5000000.0}, "gap": 0.0}]}
+
+
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(braked_scenes())
+# (regressions: a held target breaking away under a net force equal to its friction limit,
+# mu = mu_static, kept a speed of -3e-17 m/s; SciPy fired its stop and its break-away at the same
+# instant to the event limit)
+@example(_held_target(500.0, 1.0, 0.1))
+@example(_held_target(2153.1846607900056, 1.9, 0.471637004928639))
 def test_exact_matches_scipy_on_random_braked_scenes(d):
     sc = lsc.Scene.load(d)
     model = HybridModel(sc)

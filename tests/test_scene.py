@@ -393,7 +393,8 @@ BAD = [
     ("zero weight", S(("set", "vehicles.1.weight", "0 lbf")), "vehicles[1].weight", "must be > 0"),
     ("mass and weight", S(("set", "vehicles.0.mass", 100)), "vehicles[0]", "not both"),
     ("neither", S(("del", "vehicles.1.weight")), "vehicles[1]", "needs its weight (or its mass)"),
-    ("missing speed", S(("del", "vehicles.1.speed")), "vehicles[1].speed", "is required"),
+    ("missing speed", S(("del", "vehicles.1.speed")), "vehicles[1].speed",
+     'is required: expected a velocity (e.g. "10 ft/s"'),
     ("unknown key", S(("set", "vehicles.0.wieght", 1)), "vehicles[0].wieght",
      'unknown key "wieght"; did you mean "weight"? accepted keys: name, weight, mass, speed, brake'),
     ("unknown top key", S(("set", "contact", [])), "contact", 'did you mean "contacts"'),
@@ -403,11 +404,22 @@ BAD = [
      '"10 lbf" is a force, expected a velocity (e.g. "10 ft/s", "16 km/h" or a bare number in ft/s)'),
     ("pound mass as weight", S(("set", "vehicles.0.weight", "3500 lb")), "vehicles[0].weight",
      'is a mass, expected a force'),
-    ("nan speed", S(("set", "vehicles.0.speed", float("nan"))), "vehicles[0].speed", "not a finite number"),
-    ("inf weight", S(("set", "vehicles.1.weight", float("inf"))), "vehicles[1].weight", "not a finite number"),
-    ("nan string", S(("set", "vehicles.0.speed", "nan ft/s")), "vehicles[0].speed", "not a finite number"),
-    ("overflow", S(("set", "vehicles.0.speed", "1e308 mi/s")), "vehicles[0].speed", "too large"),
-    ("huge int", S(("set", "vehicles.0.speed", 10 ** 400)), "vehicles[0].speed", "too large"),
+    ("nan speed", S(("set", "vehicles.0.speed", float("nan"))), "vehicles[0].speed",
+     "not a finite number; expected a finite velocity"),
+    ("inf weight", S(("set", "vehicles.1.weight", float("inf"))), "vehicles[1].weight",
+     "not a finite number; expected a finite force"),
+    ("nan string", S(("set", "vehicles.0.speed", "nan ft/s")), "vehicles[0].speed",
+     "expected a finite velocity"),
+    ("overflow", S(("set", "vehicles.0.speed", "1e308 mi/s")), "vehicles[0].speed",
+     "too large; expected a finite velocity"),
+    ("huge int", S(("set", "vehicles.0.speed", 10 ** 400)), "vehicles[0].speed",
+     "too large; expected a finite velocity"),
+    ("inf restitution", S(("set", UNLOAD + ".restitution", float("inf"))),
+     "contacts[0].unloading.restitution", "expected a finite plain number"),
+    ("nan in a table", S(("set", LOAD, {"table": [[0, 0], [float("nan"), 5]]})),
+     "contacts[0].loading.table[1][0]", "expected a finite length"),
+    ("repeated deformation", S(("set", LOAD, {"table": [[0, 0], [0.1, 5], [0.1, 8], [0.2, 9]]})),
+     "contacts[0].loading.table", "deformations must be strictly increasing (point 2 has 0.1"),
     ("bool as number", S(("set", "vehicles.0.speed", True)), "vehicles[0].speed", "the boolean true is not"),
     ("bool in table", S(("set", LOAD, {"table": [[0, 0], [1, False]]})), "contacts[0].loading.table[1][1]",
      "boolean false"),
@@ -451,7 +463,7 @@ BAD = [
     ("zero scale", S(("set", LOAD + ".scale", 0)), "contacts[0].loading.scale", "must be > 0"),
     ("series never common force",
      S(("set", LOAD, {"series": [{"table": [[0, 0], [1, 0]]}, {"stiffness": 1000}]})),
-     "contacts[0].loading.series", "never reach a common positive force"),
+     "contacts[0].loading.series", "each must reach a positive force that the other also reaches"),
     ("series falling", S(("set", LOAD, {"series": [{"table": [[0, 0], [1, 5], [2, 1]]}, {"stiffness": 1}]})),
      "contacts[0].loading.series", "non-decreasing"),
     ("series of three", S(("set", LOAD, {"series": [{"stiffness": 1}] * 3})), "contacts[0].loading.series",
@@ -473,7 +485,7 @@ BAD = [
      "only one of"),
     ("negative gap", S(("set", "contacts.0.gap", "-1 in")), "contacts[0].gap", "must be >= 0"),
     ("failure without force", S(("set", "contacts.0.failure", {})), "contacts[0].failure.force",
-     "is required"),
+     'is required: expected a force (e.g. "3500 lbf"'),
     ("damping law with IF-D keys", S(("set", "contacts.0.law", "kelvin")), "contacts[0].loading",
      'unknown key "loading"; accepted keys: law, gap, failure, stiffness, damping, restitution'),
     ("kelvin without damping", S(("set", "contacts.0", {"law": "kelvin", "stiffness": 1000})),
@@ -505,6 +517,10 @@ BAD = [
     ("negative dt", S(("set", "solver", {"dt": -1e-5})), "solver.dt", "must be > 0"),
     ("dt not a time", S(("set", "solver", {"dt": "1 ft"})), "solver.dt", "expected a time"),
     ("zero rtol", S(("set", "solver", {"rtol": 0})), "solver.rtol", "must be > 0"),
+    ("negative rtol", S(("set", "solver", {"rtol": -1e-8})), "solver.rtol", "must be > 0"),
+    ("zero max_events", S(("set", "solver", {"max_events": 0})), "solver.max_events", "must be > 0"),
+    ("fractional max_steps", S(("set", "solver", {"max_steps": 1.5})), "solver.max_steps",
+     "must be a whole number >= 1"),
     ("fractional max_events", S(("set", "solver", {"max_events": 2.5})), "solver.max_events", "whole number"),
     ("empty integrator", S(("set", "solver", {"integrator": ""})), "solver.integrator", "DOP853"),
     ("unknown units", S(("set", "units", "metric")), "units", 'unknown unit system "metric"'),
@@ -523,6 +539,123 @@ def test_malformed(scene, path, phrase):
     assert ei.value.path == path
     assert phrase in ei.value.message
     assert str(ei.value).startswith(path + ": " if path else "")
+
+
+def test_catalogue_covers_the_issue():
+    """At least 40 malformed scenes, one per kind of mistake; each says what is accepted."""
+    assert len(BAD) + len(CSV_BAD) + len(SOLVE_BAD) >= 40
+    assert len({b[0] for b in BAD}) == len(BAD)
+
+
+# CSV tables: (name, file text or None for a missing file, accepted-values phrase)
+CSV_BAD = [
+    ("csv missing", None, "expected a CSV file of two columns, deformation and force"),
+    ("csv empty", "", "expected two columns: deformation, force"),
+    ("csv header only", "D, F\n", "expected two columns: deformation, force"),
+    ("csv non-numeric cell", "D,F\n0,0\n1,abc\n", "expected two numeric columns (deformation, force)"),
+    ("csv three columns", "0,0\n1,2,3\n", "expected 2 columns (deformation, force)"),
+    ("csv nan", "0,0\nnan,1\n", "expected two finite numeric columns"),
+    ("csv not increasing", "0,0\n1,5\n0.5,6\n", "strictly increasing"),
+    ("csv one row", "0,0\n", "at least two points"),
+]
+
+
+@pytest.mark.parametrize("text, phrase", [b[1:] for b in CSV_BAD], ids=[b[0] for b in CSV_BAD])
+def test_malformed_csv(tmp_path, text, phrase):
+    name = "missing.csv" if text is None else "c.csv"
+    if text is not None:
+        (tmp_path / name).write_text(text)
+    d = paper()
+    d["contacts"][0]["loading"] = {"csv": name}
+    with pytest.raises(SceneError) as ei:
+        Scene.load(d, base_dir=tmp_path)
+    assert ei.value.path == "contacts[0].loading.csv"
+    assert phrase in ei.value.message
+
+
+# lsc.solve options: (name, options, path, accepted-values phrase)
+SOLVE_BAD = [
+    ("unknown method", {"method": "rk4"}, "solver.method", "accepted: 'auto', 'closed-form'"),
+    ("negative dt", {"method": "reference", "dt": -1e-5}, "solver.dt",
+     "dt must be a positive finite number"),
+    ("negative rtol", {"method": "scipy", "rtol": -1e-8}, "solver.rtol",
+     "rtol must be a positive finite number"),
+    ("nan rtol", {"method": "scipy", "rtol": float("nan")}, "solver.rtol", "positive finite number"),
+    ("rtol below 100 eps", {"method": "scipy", "rtol": 1e-16}, "solver.rtol",
+     "accept rtol >= 100 machine epsilons"),
+    ("unknown integrator", {"method": "scipy", "integrator": "RK4"}, "solver.integrator",
+     "accepted: RK45, DOP853"),
+    ("option of another method", {"method": "exact", "dt": 1e-5}, "solver.dt",
+     "it accepts: max_events, n_samples, t_end"),
+    ("zero max_steps", {"method": "scipy", "max_steps": 0}, "solver.max_steps",
+     "max_steps must be a positive integer"),
+    ("method that does not apply", {"method": "closed-form"}, "solver.method",
+     "use method 'scipy' (or 'auto')"),
+]
+
+
+@pytest.mark.parametrize("options, path, phrase", [b[1:] for b in SOLVE_BAD],
+                         ids=[b[0] for b in SOLVE_BAD])
+def test_malformed_solve_options(options, path, phrase):
+    import lsc
+
+    scene = paper()
+    if options.get("method") == "closed-form":
+        scene["contacts"][0]["loading"] = {"table": [[0, 0], [1, 24000]]}
+    with pytest.raises(SceneError) as ei:
+        lsc.solve(scene, **options)
+    assert ei.value.path == path
+    assert phrase in ei.value.message
+
+
+def _toml(obj, prefix="") -> str:
+    """A scene dict as TOML (tables, arrays of tables, strings, numbers, booleans, lists)."""
+    def val(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (int, float)):
+            return repr(v)
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{k} = {val(x)}" for k, x in v.items()) + " }"
+        raise TypeError(type(v))
+    lines, tables = [], []
+    for k, v in obj.items():
+        if isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            tables.append((k, v))
+        elif isinstance(v, dict):
+            tables.append((k, v))
+        else:
+            lines.append(f"{k} = {val(v)}")
+    for k, v in tables:
+        for item in (v if isinstance(v, list) else [v]):
+            lines.append(f"[[{k}]]" if isinstance(v, list) else f"[{k}]")
+            lines.extend(f"{kk} = {val(x)}" for kk, x in item.items())
+    return "\n".join(lines) + "\n"
+
+
+#: A sample of the catalogue that TOML can spell, through the command line.
+CLI_SAMPLE = ["zero mass", "mass and weight", "missing speed", "unknown key", "force as speed",
+              "restitution 1.5", "table not increasing", "repeated deformation",
+              "table with one point", "series never common force", "contact count",
+              "not closing", "unknown method", "negative dt", "zero rtol", "unknown units"]
+
+
+@pytest.mark.parametrize("name", CLI_SAMPLE)
+def test_cli_one_line_exit_2(tmp_path, capsys, name):
+    from lsc.cli import main
+
+    scene, path = next((b[1], b[2]) for b in BAD if b[0] == name)
+    f = tmp_path / "bad.toml"
+    f.write_text(_toml(scene))
+    rc = main(["run", str(f), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and err.startswith(f"lsc: error: {path}: "), err
+    assert not (tmp_path / "o").exists()
 
 
 def test_chain_not_closing():
@@ -632,8 +765,14 @@ def fuzz_dir(tmp_path_factory):
     return d
 
 
-@settings(max_examples=int(os.environ.get("LSC_FUZZ_EXAMPLES", 300)), deadline=None,
-          suppress_health_check=[HealthCheck.too_slow])
+#: Loader fuzzing: 10,000 examples by default (about a minute), 200,000 in hard mode
+#: (``pytest --hard`` / LSC_HARD=1); ``LSC_FUZZ_EXAMPLES`` sets the count outright.
+_HARD = os.environ.get("LSC_HARD", "").strip().lower() not in ("", "0", "false", "no")
+FUZZ_EXAMPLES = int(os.environ.get("LSC_FUZZ_EXAMPLES") or (200_000 if _HARD else 10_000))
+
+
+@settings(max_examples=FUZZ_EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(data=st.data())
 def test_fuzz_only_scene_errors(data, fuzz_dir):
     scene = data.draw(st.sampled_from(_bases()))

@@ -199,7 +199,12 @@ def test_diffrax_sweep_of_1000_equals_single_solves_and_the_exact_backend():
             continue
         assert s.status[j] == "ok", (j, s.status[j])
         for name in SWEEP_METRICS:
-            assert np.allclose(getattr(s, name)[j], getattr(r, name), rtol=1e-9, atol=0), (j, name)
+            # (a restitution is a ΔV over the closing speed: within 1e-12 of it, absolute; a
+            # near-plastic one, e = 6e-4, differs by 1e-9 of itself between the batched and the
+            # single compiled programs, which round differently, each as close to the exact one)
+            atol = 1e-12 if name == "restitution" else 0.0
+            assert np.allclose(getattr(s, name)[j], getattr(r, name), rtol=1e-9, atol=atol), \
+                (j, name)
     # and each member is right, not only equal to its single solve: the exact backend
     ex = lsc.sweep(US_BASE, params, method="exact")
     assert np.array_equal(ex.ok, s.ok)

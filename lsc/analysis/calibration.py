@@ -156,6 +156,11 @@ def _table(scene: Scene, k: int):
     if not isinstance(law, Hysteresis):
         raise SceneError(path, "force-scale calibration applies to the IF-D law with a measured "
                                "loading table")
+    fail = scene.contacts[k].failure
+    if fail is not None and fail.post_failure is not None:
+        raise SceneError(f"contacts[{k}].failure.post_failure",
+                         "force-scale calibration applies to a loading table alone; this contact "
+                         "goes on along a post-failure curve after the failure force")
     if law.loading.extends:
         raise SceneError(path, "force-scale calibration applies to a measured table that ends at its "
                                "max deformation; this loading curve goes on beyond its last point "

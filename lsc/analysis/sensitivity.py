@@ -419,6 +419,12 @@ def _tangent(model, sc: Scene, prm: _Param):
     if rest == ("gap",):
         T["gap"][i] = 1.0
     elif rest in (("loading", "stiffness"), ("loading", "scale")):
+        fail = sc.contacts[i].failure
+        if fail is not None and fail.post_failure is not None:
+            raise SceneError(prm.path, "this contact goes on along a post-failure curve from the "
+                             "point where its loading reaches the failure force, and that point "
+                             "moves with the loading curve (the post-failure curve does not "
+                             "scale): use method=\"finite-difference\"")
         # every force of the curve is proportional to the stiffness (or the scale), and so are
         # the slopes and the cumulative energies derived from them
         for key in ("lf", "ls", "le"):
@@ -497,42 +503,6 @@ def _zeros(tree):
 #: crash are linear in ``e``; the peaks do not depend on it).
 _E_MIN = 1e-3
 _CORES: dict = {}
-_CLASS: list = []
-
-
-def _core_class():
-    """The backend's segment loop, with the force and acceleration peaks of the last step of a
-    segment searched on that step re-taken up to the located event.
-
-    Where peaks can lie between events (damping laws, braking, chains) the backend searches each
-    step's dense interpolant; on the step in which an event fires it searches the interpolant of
-    the whole step up to the event time. That interpolant is less accurate than the located event
-    state (by ~1e-10 relative with Dopri8 at rtol 1e-12), so a peak reached at the event (a
-    common velocity) was read off it, and its derivative came out wrong by up to ~1e-6 relative.
-    Re-taking that step from its start to the event gives an interpolant that ends on the
-    integrator's own state there. (The backend's ``_Stash`` folds the earlier, whole steps, which
-    it calls with ``hi is t1``.)
-    """
-    if _CLASS:
-        return _CLASS[0]
-    import jax.numpy as jnp
-    from ..solvers import diffrax_ode as dx
-
-    class _SensitivityCore(dx._Core):
-        def _peaks(self, t0, t1, lo, hi, dense, args):
-            if hi is not t1:  # the last step, cut at the event: re-take it to the event
-                h = jnp.where(t1 > t0, t1 - t0, 1.0)
-                y0 = self.solver.interpolation_cls(t0=t0, t1=t0 + h, **dense).evaluate(t0)
-                a2 = (args[0], args[1])
-                dense = self.solver.step(self.term, t0, hi, y0, a2,
-                                         self.solver.init(self.term, t0, hi, y0, a2), False)[2]
-                t1 = hi
-            return super()._peaks(t0, t1, lo, hi, dense, args)
-
-    _CLASS.append(_SensitivityCore)
-    return _SensitivityCore
-
-
 def _jvp_core(model, integrator: str, max_steps: int, max_events: int):
     """The diffrax segment loop of this scene structure (a solver whose stage loop JAX can
     differentiate forward) and its compiled Jacobian function, built once per structure."""
@@ -540,7 +510,7 @@ def _jvp_core(model, integrator: str, max_steps: int, max_events: int):
     key = (dx._structure(model), integrator, int(max_steps), int(max_events))
     entry = _CORES.get(key)
     if entry is None:
-        core = _core_class()(model, integrator, max_steps, max_events)
+        core = dx._Core(model, integrator, max_steps, max_events)
         # diffrax's ForwardMode switches a Runge-Kutta solver's stage loop to a plain lax loop
         # (its default checkpointed loop is a custom_vjp, which jvp refuses); the backend wraps
         # the solver, so do it here, on this private copy of the core

@@ -9,16 +9,32 @@ none is closing and no braked vehicle slides (:meth:`HybridModel.is_over`, writt
 at ``t_end``, or on a failure status (the law's :data:`~lsc.contact.STATUS` codes raise the same
 :class:`~lsc.errors.SimulationError` as the NumPy backends).
 
+Steps. diffrax's PID controller picks the steps; none is longer than ``MAX_ANGLE / ω`` for the
+highest natural frequency ``ω`` of the loaded contacts (as in the SciPy backend: a step over half
+an oscillation can cross an event surface and come back unseen). The explicit tableaus (Tsit5,
+Dopri5, Dopri8) are stepped by :class:`_Unrolled`, their stages unrolled at trace time (diffrax's
+stage loop is ~10 times slower under ``vmap``); Kvaerno5 is diffrax's own.
+
 Events. diffrax's :class:`~diffrax.Event` watches the minimum over all events of ``g_i / s_i``
 (``s_i``: the scene's length, speed or force scale, by the kind of event) and stops the solve at
 the end of the step in which the first one crosses zero downward; taking the minimum makes it the
 *earliest* event even when several cross in one step (with a pytree of event functions diffrax
 would report the first one in tree order). :meth:`_Core._locate` then finds every crossing on that
-step's dense interpolant (bracketed Newton, to 1e-12 of the step), keeps the earliest, and
+step's dense interpolant (bracketed Newton, to 1e-12 of the step), keeps the earliest (an event
+that crossed and crossed back inside the step is past its surface there: the search is repeated
+up to that root), and
 polishes it on the integrator's own solution: it re-takes the step from its start to the root and
 makes one Newton step on the event function there. Event times and states are thus as accurate as
 the integrator's steps, not only as its interpolant (diffrax's Dopri8 interpolant is ~1000 times
 less accurate than its steps).
+
+Frame. Each segment is integrated in its own frame, as in the SciPy backend: positions from
+where the vehicles are at its start, less the motion of the centre of mass (velocities less its
+velocity; not with brakes), each contact's gap set to minus its deformation there
+(:meth:`_Core._frame`). A deformation is then resolved to its own ulps, not to those of the
+positions: after a metre of travel a near-plastic rebound (``e = 1e-6``, ``1e-12`` of the
+deformation wide) lost most of its width to the rounding of the positions, accumulated over
+the steps of the rebound.
 
 Restart trap. diffrax fires a downward event when the value goes from ``> 0`` to ``<= 0``. An
 event that starts a segment on (or a hair past) its surface, ``g_i / s_i <= 0``, is shifted to
@@ -36,7 +52,8 @@ and effects, table lengths), integrator, ``max_steps`` and ``max_events``; every
 speeds, curves, restitution, ``rtol``, ``atol``, ``t_end``) is a traced argument, so a scene whose
 structure was compiled before runs without retracing. ``stats["compile_time"]`` [s] is the
 compile time spent in that call (0 when cached), ``stats["wall_time"]`` [s] the run time of the
-compiled solve. The sampled series of the :class:`~lsc.result.Result` come from the recorded steps:
+compiled solve (a solve of more than :data:`RECORD_NODES` steps in all runs again, with a
+record of ``4 x max_steps`` nodes: both runs are counted). The sampled series of the :class:`~lsc.result.Result` come from the recorded steps:
 a second, small compiled function re-takes each step once for its dense interpolant (compiled
 once per power-of-two bucket of steps and samples).
 
@@ -97,10 +114,10 @@ OVER_TOL = 1e-12
 #: an oscillation is unreliable.
 MAX_ANGLE = 0.5
 
-# Backend status codes (the law codes 1..3 are lsc.contact.STATUS).
+# Backend status codes (the law codes 1..5 are lsc.contact.STATUS).
 MAX_EVENTS, NO_EVENT, SOLVER_FAILED, NON_FINITE, T_END_EARLY, RECORD_FULL = 10, 11, 12, 13, 14, 15
 
-#: Status code → reason (0: ok; 1..3: the contact law's, :data:`lsc.contact.STATUS`).
+#: Status code → reason (0: ok; 1..5: the contact law's, :data:`lsc.contact.STATUS`).
 STATUS_CODES = {
     0: "ok",
     **{k: v for k, v in STATUS.items() if k},
@@ -115,6 +132,9 @@ STATUS_CODES = {
                  "loaded or closing): raise solver.t_end or leave it unset",
     RECORD_FULL: "more steps in all than the dense record holds (4 x max_steps): raise max_steps",
 }
+
+#: Nodes of the dense record of a single solve at first (then ``4 x max_steps`` if it fills).
+RECORD_NODES = 512
 
 #: Trace counters, ``core`` and ``sampler`` (a Python side effect runs only while JAX traces).
 TRACES = {"core": 0, "sampler": 0}
@@ -220,18 +240,10 @@ def _fold(peaks, F, a):
     return jnp.maximum(pF, F), jnp.where(jnp.abs(a) > jnp.abs(pa), a, pa)
 
 
-class _Unrolled(diffrax.AbstractAdaptiveSolver):
-    """An explicit Runge–Kutta step of a diffrax solver's own Butcher tableau, interpolant, order
-    and error estimate, with its stages unrolled at trace time.
+class _Wrapping(diffrax.AbstractAdaptiveSolver):
+    """A solver that takes its terms, interpolant and orders from the solver it wraps."""
 
-    diffrax runs the stages of a step in a loop over a stage buffer (the stage count varies
-    with FSAL on the first step); under ``vmap`` that loop's predicate is batched and every stage
-    copies the whole buffer of every member: a vmapped Dopri8 step cost ~10 times more than the
-    same arithmetic unrolled (measured: 3.2 vs 0.34 µs per member and step on 4096 members).
-    Zero tableau coefficients are skipped; FSAL (the last stage is ``f(t1, y1)``) is kept in the
-    solver state as diffrax does. The result is diffrax's step up to rounding."""
-
-    solver: diffrax.AbstractERK
+    solver: diffrax.AbstractSolver
 
     @property
     def term_structure(self):
@@ -250,6 +262,23 @@ class _Unrolled(diffrax.AbstractAdaptiveSolver):
 
     def error_order(self, terms):
         return self.solver.error_order(terms)
+
+    def func(self, terms, t0, y0, args):
+        return self.solver.func(terms, t0, y0, args)
+
+
+class _Unrolled(_Wrapping):
+    """An explicit Runge–Kutta step of a diffrax solver's own Butcher tableau, interpolant, order
+    and error estimate, with its stages unrolled at trace time.
+
+    diffrax runs the stages of a step in a loop over a stage buffer (the stage count varies
+    with FSAL on the first step); under ``vmap`` that loop's predicate is batched and every stage
+    copies the whole buffer of every member: a vmapped Dopri8 step cost ~10 times more than the
+    same arithmetic unrolled (measured: 3.2 vs 0.34 µs per member and step on 4096 members).
+    Zero tableau coefficients are skipped; FSAL (the last stage is ``f(t1, y1)``) is kept in the
+    solver state as diffrax does. The result is diffrax's step up to rounding."""
+
+    solver: diffrax.AbstractERK
 
     def init(self, terms, t0, t1, y0, args):
         return terms.vf(t0, y0, args) if self.solver.tableau.fsal else None
@@ -282,7 +311,7 @@ class _Unrolled(diffrax.AbstractAdaptiveSolver):
         return terms.vf(t0, y0, args)
 
 
-class _Stash(diffrax.AbstractAdaptiveSolver):
+class _Stash(_Wrapping):
     """A solver that keeps its last accepted step ``(t0, t1, y0, dense info)`` in its state
     (diffrax keeps the old state on a rejected step): what :meth:`_Core._locate` works on.
 
@@ -293,24 +322,6 @@ class _Stash(diffrax.AbstractAdaptiveSolver):
     solver: diffrax.AbstractSolver
     peaks: object = eqx.field(static=True, default=None)
     point: object = eqx.field(static=True, default=None)
-
-    @property
-    def term_structure(self):
-        return self.solver.term_structure
-
-    @property
-    def interpolation_cls(self):  # pyright: ignore
-        return self.solver.interpolation_cls
-
-    @property
-    def term_compatible_contr_kwargs(self):
-        return self.solver.term_compatible_contr_kwargs
-
-    def order(self, terms):
-        return self.solver.order(terms)
-
-    def error_order(self, terms):
-        return self.solver.error_order(terms)
 
     def init(self, terms, t0, t1, y0, args):
         inner = self.solver.init(terms, t0, t1, y0, args)
@@ -333,9 +344,6 @@ class _Stash(diffrax.AbstractAdaptiveSolver):
         return y1, err, dense, (inner, jnp.asarray(t0, dt), jnp.asarray(t1, dt), y0, dense,
                                 peaks), result
 
-    def func(self, terms, t0, y0, args):
-        return self.solver.func(terms, t0, y0, args)
-
 
 class _Compiled:
     """A jitted function and its ahead-of-time compiled executables, keyed by argument shapes
@@ -349,22 +357,41 @@ class _Compiled:
         leaves, tree = jax.tree_util.tree_flatten(args)
         key = (tree, tuple((np.shape(a), np.asarray(a).dtype.str) for a in leaves))
         compile_time = 0.0
-        exe = self.exe.get(key)
-        if exe is None:
+        if key not in self.exe:
             t0 = time.perf_counter()
-            exe = self.fn.lower(*args).compile()
+            self.exe[key] = self.fn.lower(*args).compile()
             compile_time = time.perf_counter() - t0
-            self.exe[key] = exe
+        # run through the jitted function: its C++ dispatch is several times cheaper than an
+        # AOT executable's, and it finds the executable just compiled (no retrace, no compile)
         t0 = time.perf_counter()
-        out = jax.block_until_ready(exe(*args))
+        out = jax.block_until_ready(self.fn(*args))
         return out, compile_time, time.perf_counter() - t0
+
+
+def _frame_of(t0, x0, V, p):
+    """A segment's frame from its start time ``t0``, the positions ``x0`` (N,) there and ``V``:
+    the segment's parameters, ``to_abs(t, u)`` and ``to_frame(t, y)`` (states (..., n) at times
+    (...)); see :meth:`_Core._frame`."""
+    N = x0.shape[0]
+    pf = dict(p, gap=-(x0[:-1] - x0[1:] - p["gap"]))
+
+    def shift(t):
+        return x0 + V * (jnp.asarray(t)[..., None] - t0)
+
+    def to_abs(t, u):
+        return u.at[..., :N].add(shift(t)).at[..., N:2 * N].add(V)
+
+    def to_frame(t, y):
+        return y.at[..., :N].add(-shift(t)).at[..., N:2 * N].add(-V)
+    return pf, to_abs, to_frame
 
 
 # ---------------------------------------------------------------------------- the solver
 class _Core:
     """The compiled segment loop for one scene structure and one set of static options."""
 
-    def __init__(self, model, integrator: str, max_steps: int, max_events: int):
+    def __init__(self, model, integrator: str, max_steps: int, max_events: int,
+                 capacity: int | None = None):
         self.model = model  # any model of this structure: only its structure is used in traces
         self.integrator = integrator
         base = _SOLVERS[integrator]()
@@ -372,7 +399,8 @@ class _Core:
         self.solver = _Unrolled(base) if isinstance(base, diffrax.AbstractERK) else base
         self.max_steps = int(max_steps)
         self.max_events = int(max_events)
-        self.capacity = 4 * self.max_steps  # nodes of the dense record, over the whole solve
+        # nodes of the dense record, over the whole solve
+        self.capacity = 4 * self.max_steps if capacity is None else int(capacity)
         self.term = diffrax.ODETerm(self._vf)
         # stops at the end of the step where the first event crosses; _locate finds the root
         self.event = diffrax.Event(self._cond, None, direction=False)
@@ -380,6 +408,8 @@ class _Core:
                  for j, w in model.events]
         self.ev_unit = np.array([{"length": 0, "velocity": 1, "force": 2}[u] for u in units])
         self.fail_contacts = [f.k for f in model.failures]
+        # contacts whose law follows a post-failure curve and reports the failure itself
+        self.fail_laws = [k for k, law in enumerate(model.laws) if getattr(law, "fails", False)]
         # forces and accelerations can peak between events (damping laws, braking, chains): the
         # metrics solve then searches every step for them; two-car IF-D peaks are at events
         self.interior = (model.N > 2 or bool(model.brakes)
@@ -407,8 +437,21 @@ class _Core:
 
     def _branch(self, i):
         def transition(t, y, disc, p):
-            return _canon(self.model.apply_event(i, t, y, disc, p, jnp, absolute=True))
+            return _canon(self.model.apply_event(i, t, y, disc, p, jnp))
         return transition
+
+    def _frame(self, t0, y, p):
+        """The coordinates a segment starting at ``(t0, y)`` is integrated in (as the SciPy
+        backend's ``_Frame``): positions from where the vehicles are at ``t0``, less the motion of
+        the centre of mass ``V (t - t0)`` (``V = 0`` with brakes, which need each vehicle's own
+        velocity), velocities less ``V``; contact ``k``'s gap becomes ``-D0_k`` so that its
+        deformation is ``D0_k + (u_k - u_{k+1})``, resolved to its own ulps, not the positions'.
+        Returns the frame state, the segment's parameters, ``to_abs(t, u)`` (``u``: (n,) or
+        (B, n) at times (B,)) and ``V``."""
+        N = self.model.N
+        V = jnp.asarray(0.0) if self.model.brakes else jnp.sum(p["m"] * y[N:2 * N]) / jnp.sum(p["m"])
+        pf, to_abs, _ = _frame_of(t0, y[:N], V, p)
+        return y.at[:N].set(0.0).at[N:2 * N].add(-V), pf, to_abs, V
 
     def _apart(self, y, disc, p, v_scale):
         """HybridModel.contacts_apart in jnp: every contact open and none closing."""
@@ -474,6 +517,18 @@ class _Core:
         q_ext = jax.vmap(lambda t, i: q(t)[i])(jnp.where(inside, t_ext, hi), idx)
         F, a = _fold((q_hi[:K], q_hi[K:]), q_ext[:K], q_ext[K:])
         return F, a
+
+    def _last_peaks(self, tp, te, yp, args):
+        """The peaks on the last step of a segment, ``[tp, te]`` (``te``: the located event;
+        start state ``yp``): the step is re-taken from ``tp`` to ``te`` for an interpolant that
+        ends on the integrator's own state there. (The interpolant of the whole step is less
+        accurate than the located event state, by ~1e-10 relative with Dopri8 at rtol 1e-12: a
+        peak reached at the event, a common velocity, read off it was off by that much, and its
+        derivative by up to ~1e-6 relative.)"""
+        a2 = args[:2]
+        dense = self.solver.step(self.term, tp, te, yp, a2,
+                                 self.solver.init(self.term, tp, te, yp, a2), False)[2]
+        return self._peaks(tp, te, tp, te, dense, args)
 
     def _over(self, y, disc, p, v_scale):
         """HybridModel.is_over in jnp: contacts apart and no braked vehicle sliding."""
@@ -610,23 +665,28 @@ class _Core:
                 # per segment: first node, last node, its discrete state (0 = initial, e = event e)
                 "seg": jnp.zeros((E + 1, 3), jnp.int32),
                 # nodes of the dense record: time, state (n)
-                "nodes": jnp.zeros((C + S + 1, 1 + n)), "n_nodes": jnp.int32(0)})
+                "nodes": jnp.zeros((C + S + 1, 1 + n)), "n_nodes": jnp.int32(0),
+                # per segment: its frame (the positions at its start, and V)
+                "frame": jnp.zeros((E + 1, N + 1))})
         else:
             F0, _, a0 = m.accelerations(y0, disc0, p, jnp)
             failed0 = [disc0[K + len(m.brakes) + j]["failed"] > 0 for j in range(len(m.failures))]
             fail_t = jnp.full(K, jnp.nan)
             for j, k in enumerate(self.fail_contacts):
                 fail_t = fail_t.at[k].set(jnp.where(failed0[j], 0.0, jnp.nan))
+            for k in self.fail_laws:
+                fail_t = fail_t.at[k].set(jnp.where(disc0[k]["failed"] > 0, 0.0, jnp.nan))
             c.update({"peak_force": F0, "peak_acc": a0, "y_post": y0, "separated": False,
                       "contact_time": jnp.where(contact_modes(disc0) != 0, 0.0, jnp.nan),
                       "separation_time": jnp.full(K, jnp.nan), "failure_time": fail_t})
 
         def body(c):
-            t, y, disc = c["t"], c["y"], c["disc"]
-            over = self._over(y, disc, p, v_scale)  # then free flight to t_end, events disarmed
-            g0 = m.event_values(t, y, disc, p, jnp) / sc
+            t, disc = c["t"], c["disc"]
+            y, pf, to_abs, v_frame = self._frame(t, c["y"], p)   # the segment's frame
+            over = self._over(y, disc, pf, v_scale)  # then free flight to t_end, events disarmed
+            g0 = m.event_values(t, y, disc, pf, jnp) / sc
             off = jnp.where(g0 <= 0, EVENT_TOL - g0, 0.0)  # the restart trap
-            args = (disc, p, off, sc, ~over)
+            args = (disc, pf, off, sc, ~over)
             controller = diffrax.PIDController(rtol=rtol, atol=atol, dtmax=self._dtmax(disc, p))
             sol = diffrax.diffeqsolve(
                 self.term, stepper, t, horizon, None, y, args=args,
@@ -646,20 +706,21 @@ class _Core:
             te, ye, i = self._locate(inner, tp, tb, yp, dense, args)
             tn = jnp.where(fired, te, tn)
             yn = jnp.where(fired, ye, yn)
-            new = lax.switch(i, self.branches, tn, yn, disc, p)
+            new = lax.switch(i, self.branches, tn, yn, disc, pf)
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(fired, a, b), new, disc)
             law, lawk = _law_status(new[:K])
             n_ev = c["n_ev"] + fired.astype(jnp.int32)
             at_end = has_t_end & (tn >= t_end)
             # reaching t_end with only braked vehicles still sliding is no failure (as SciPy)
-            finished = (self._over(yn, new, p, v_scale) & (~has_t_end | at_end)) | \
-                (at_end & ~fired & self._apart(yn, new, p, v_scale))
+            finished = (self._over(yn, new, pf, v_scale) & (~has_t_end | at_end)) | \
+                (at_end & ~fired & self._apart(yn, new, pf, v_scale))
             finite = jnp.all(jnp.isfinite(yn)) & jnp.isfinite(tn)
             status = jnp.select(
                 [~ok, ~finite, law != 0, ~fired & ~over & ~finished, ~finished & (n_ev >= E)],
                 [SOLVER_FAILED, NON_FINITE, law, jnp.where(has_t_end, T_END_EARLY, NO_EVENT),
                  MAX_EVENTS], 0).astype(jnp.int32)
             out = dict(c)
+            yf, yn = yn, to_abs(tn, yn)   # (the frame's state, and the absolute one)
             out.update({
                 "t": tn, "y": yn, "disc": new, "status": status,
                 "status_contact": jnp.where(law != 0, lawk, c["status_contact"]),
@@ -668,10 +729,11 @@ class _Core:
                 "rejected": c["rejected"] + sol.stats["num_rejected_steps"].astype(jnp.int32)})
             if record:
                 j, n0, e = c["n_seg"], c["n_nodes"], c["n_ev"]
-                saved = jnp.concatenate([sol.ts[:, None], sol.ys], axis=1)
+                ts = jnp.where(jnp.isfinite(sol.ts), sol.ts, t)   # (unused rows: inf)
+                saved = jnp.concatenate([sol.ts[:, None], to_abs(ts, sol.ys)], axis=1)
                 saved = saved.at[last].set(jnp.where(nacc > 0, jnp.concatenate([tn[None], yn]),
                                                      saved[last]))
-                block = jnp.concatenate([jnp.concatenate([t[None], y])[None], saved])
+                block = jnp.concatenate([jnp.concatenate([t[None], c["y"]])[None], saved])
                 row = jnp.concatenate([tn[None], i.astype(jnp.float64)[None], yn, _flat(new)])
                 out.update({
                     "status": jnp.where((status == 0) & (n0 + 1 + nacc > C), RECORD_FULL, status),
@@ -679,11 +741,12 @@ class _Core:
                     "n_nodes": n0 + 1 + nacc,
                     "seg": lax.dynamic_update_slice(c["seg"], jnp.stack([n0, n0 + nacc, e])[None],
                                                     (j, jnp.int32(0))),
+                    "frame": c["frame"].at[j].set(jnp.concatenate([c["y"][:N], v_frame[None]])),
                     "rec": lax.dynamic_update_slice(c["rec"], row[None], (e, jnp.int32(0)))})
             else:
                 # metrics: peaks at the event points (before and after the transition)
-                Fb, _, ab = m.accelerations(yn, disc, p, jnp)
-                Fa, _, aa = m.accelerations(yn, new, p, jnp)
+                Fb, _, ab = m.accelerations(yf, disc, pf, jnp)
+                Fa, _, aa = m.accelerations(yf, new, pf, jnp)
                 pa = c["peak_acc"]
                 pa = jnp.where(jnp.abs(ab) > jnp.abs(pa), ab, pa)
                 pa = jnp.where(jnp.abs(aa) > jnp.abs(pa), aa, pa)
@@ -695,10 +758,13 @@ class _Core:
                     q = K + len(m.brakes) + jf
                     now = fired & (disc[q]["failed"] == 0) & (new[q]["failed"] > 0)
                     fail_t = fail_t.at[k].set(jnp.where(now & jnp.isnan(fail_t[k]), tn, fail_t[k]))
+                for k in self.fail_laws:
+                    now = fired & (disc[k]["failed"] == 0) & (new[k]["failed"] > 0)
+                    fail_t = fail_t.at[k].set(jnp.where(now & jnp.isnan(fail_t[k]), tn, fail_t[k]))
                 peak_F = jnp.maximum(c["peak_force"], jnp.maximum(Fb, Fa))
                 if track:  # between the events: all steps, and the last one up to the event
                     peak_F, pa = _fold((peak_F, pa), *step_peaks)
-                    peak_F, pa = _fold((peak_F, pa), *self._peaks(tp, tb, tp, tn, dense, args))
+                    peak_F, pa = _fold((peak_F, pa), *self._last_peaks(tp, tn, yp, args))
                 out.update({
                     "peak_force": peak_F,
                     "peak_acc": pa, "failure_time": fail_t,
@@ -714,7 +780,7 @@ class _Core:
         out.update({"segments": c["n_seg"], "events": c["n_ev"], "rtol": rtol, "atol": atol})
         if record:
             out["disc0"] = _flat(disc0)
-            out.update({k: c[k] for k in ("rec", "seg", "nodes", "n_nodes")})
+            out.update({k: c[k] for k in ("rec", "seg", "nodes", "n_nodes", "frame")})
         else:
             out.update(self._metrics(c, p))
         return out
@@ -741,23 +807,29 @@ class _Core:
             "contact_time": ct, "separation_time": st, "failure_time": c["failure_time"]}
 
     # -- the dense output of the recorded steps, for the sampled series
-    def _sample(self, p, rtol, atol, discs, st0, st1, sy0, sdisc):
+    def _sample(self, p, rtol, atol, discs, st0, st1, sy0, sdisc, sframe, sts):
         """The dense output of the steps ``[st0, st1]`` from ``sy0`` (B,), in discrete state
         ``discs[sdisc]``, at the :data:`_THETA` points of each step (B, len(_THETA), n): each step
-        is re-taken once for its interpolant (a polynomial of degree < len(_THETA) in time)."""
+        is re-taken once for its interpolant (a polynomial of degree < len(_THETA) in time), in
+        its segment's frame (``sframe`` (B, N + 1): positions at the segment start ``sts`` (B,)
+        and ``V``), as the solve took it."""
         TRACES["sampler"] += 1
         solver, term = _with_tols(self.solver, rtol, atol), self.term
         theta = jnp.asarray(_THETA)
+        N = self.model.N
 
-        def values(t0, t1, y0, d):
-            args = (_unflat(discs[d], self.disc_like), p)
-            dense = solver.step(term, t0, t1, y0, args, solver.init(term, t0, t1, y0, args),
+        def values(t0, t1, y0, d, fr, ts):
+            pf, to_abs, to_frame = _frame_of(ts, fr[:N], fr[N], p)
+            args = (_unflat(discs[d], self.disc_like), pf)
+            u0 = to_frame(t0, y0)
+            dense = solver.step(term, t0, t1, u0, args, solver.init(term, t0, t1, u0, args),
                                 False)[2]
             h = jnp.where(t1 > t0, t1 - t0, 1.0)
             interp = solver.interpolation_cls(t0=t0, t1=t0 + h, **dense)
-            return jax.vmap(interp.evaluate)(t0 + theta * h)
+            tt = t0 + theta * h
+            return to_abs(tt, jax.vmap(interp.evaluate)(tt))
 
-        return jax.vmap(values)(st0, st1, sy0, sdisc)
+        return jax.vmap(values)(st0, st1, sy0, sdisc, sframe, sts)
 
     def run_batched(self, axes, p, rtol, atol, t_end, horizon):
         """The metrics solve vmapped over the parameter leaves whose axis is 0 in ``axes``."""
@@ -775,11 +847,11 @@ class _Core:
 _CORES: dict = {}
 
 
-def _core(model, integrator, max_steps, max_events) -> _Core:
-    key = (_structure(model), integrator, int(max_steps), int(max_events))
+def _core(model, integrator, max_steps, max_events, capacity=None) -> _Core:
+    key = (_structure(model), integrator, int(max_steps), int(max_events), capacity)
     core = _CORES.get(key)
     if core is None:
-        core = _CORES[key] = _Core(model, integrator, max_steps, max_events)
+        core = _CORES[key] = _Core(model, integrator, max_steps, max_events, capacity)
     return core
 
 
@@ -819,7 +891,8 @@ class _Sampler:
             seg_of = np.searchsorted(self.n0, st, side="right") - 1
             vals, self.compile_time, _ = core.sampler(
                 p, out["rtol"], out["atol"], discs, self.node_t[st], self.node_t[st + 1],
-                self.node_y[st], self.sdisc[seg_of].astype(np.int32))
+                self.node_y[st], self.sdisc[seg_of].astype(np.int32),
+                out["frame"][:nseg][seg_of], self.node_t[self.n0[seg_of]])
             self.values[steps] = np.asarray(vals)[: steps.size]
 
     def evaluate(self, s: int, tt) -> np.ndarray:
@@ -864,12 +937,21 @@ def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, 
     steps in one segment; ``max_events``: most events in one solve.
     """
     _check(integrator, rtol, atol, max_steps, max_events)
-    core = _core(model, integrator, max_steps, max_events)
     p = jax.tree_util.tree_map(_f64, model.params)
     horizon = float(model.horizon()) if hasattr(model, "horizon") else np.nan
-    out, compile_time, wall = core.single(p, _f64(rtol), _f64(np.nan if atol is None else atol),
-                                          _f64(np.nan if t_end is None else t_end),
-                                          _f64(horizon if np.isfinite(horizon) else np.nan))
+    args = (p, _f64(rtol), _f64(np.nan if atol is None else atol),
+            _f64(np.nan if t_end is None else t_end),
+            _f64(horizon if np.isfinite(horizon) else np.nan))
+    # a small dense record first (most solves take a few dozen steps; a record sized for
+    # 4 x max_steps made the compiled solve ~25% slower); a solve that fills it runs again with
+    # the full one
+    compile_time = wall = 0.0
+    for capacity in (min(RECORD_NODES, 4 * int(max_steps)), None):
+        core = _core(model, integrator, max_steps, max_events, capacity)
+        out, ct, w = core.single(*args)
+        compile_time, wall = compile_time + ct, wall + w
+        if capacity is None or int(out["status"]) != RECORD_FULL:
+            break
     out = _numpy(out)
     status, t_stop, E, n = int(out["status"]), float(out["t"]), int(out["events"]), model.n_state
     rec = out["rec"]  # (max_events, ...): a fixed shape for the sampler

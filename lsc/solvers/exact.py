@@ -40,6 +40,10 @@ finds the zero in the first bracket to the last bit (:func:`_stop_time`). Agains
 the velocity is the closing rate itself, and its zero is the quadratic's again. At a stop the
 velocity is set to zero exactly; a held vehicle stays exactly where it is.
 
+A post-failure curve (bumper failure) needs nothing of its own: the law follows the spliced
+loading curve, whose failure point is a breakpoint where the next piece starts at its own force
+(a step), and every segment starts from its own piece's ``fa + s (D0 - da)``.
+
 The transitions between segments are the law's own ``on_event``, never re-derived here: on
 Python scalars for :func:`solve` (through :func:`~lsc.solvers.segments.run_segments`) and on
 NumPy arrays of many scenes at once in :func:`solve_batch` (which has no braking: braked
@@ -553,8 +557,6 @@ def why_not(scene) -> str | None:
     c = scene.contacts[0]
     if not isinstance(c.law, Hysteresis):
         return "it needs the IF-D hysteresis contact law (piecewise-linear loading and unloading)"
-    if c.failure is not None and c.failure.post_failure is not None:
-        return "it has no post-failure branch"
     if not c.gap >= 0:
         return "it needs a non-negative gap"
     return None
@@ -1103,6 +1105,10 @@ def batch_params(scenes) -> dict:
         if any(v.brake is not None for v in sc.vehicles):
             raise ValueError(f"scene {i}: braked scenes are not batched (solve_batch has no "
                              "friction forces): solve each with exact.solve")
+        fail = sc.contacts[0].failure
+        if fail is not None and fail.post_failure is not None:
+            raise ValueError(f"scene {i}: scenes with a post-failure curve are not batched "
+                             "(solve_batch has no failure point): solve each with exact.solve")
     laws = [sc.contacts[0].law for sc in scenes]
     curves = [law.loading for law in laws]
     if len({c.d.size for c in curves}) != 1 or len({c.extends for c in curves}) != 1:

@@ -30,7 +30,8 @@ import scipy.integrate
 from scipy.integrate import OdeSolution
 from scipy.optimize import brentq
 
-from ..contact import HysteresisLaw
+from ..contact import MODE_UNLOADING, HysteresisLaw
+from ..effects import BrakeEffect
 from ..errors import SimulationError
 from .segments import Step, build_result, run_segments
 
@@ -98,13 +99,16 @@ def _other(integrator: str) -> str:
     return " or ".join(f"integrator {i!r}" for i in others)
 
 
-def _atol(model, rtol: float, atol):
+def _atol(model, rtol: float, atol, loading: bool = False):
     """Absolute tolerances (2N,): given, or ``rtol`` times the speed scale (and times the
-    contact time scale for positions)."""
+    contact time scale for positions). ``loading``: for a segment with no contact unloading,
+    whose time scale leaves out the unloading stiffnesses (a rebound line 1e13 times stiffer
+    than the loading asked for positions to 1e-18 ft while loading: LSODA took millions of
+    steps; the rebound is resolved in its own segment's frame)."""
     if atol is not None:
         return float(atol)
     v = rtol * model.v_scale
-    T = model.time_scale()
+    T = model.time_scale(loading=loading)
     m = np.asarray(model.params["m"], float)
     e = v * model.v_scale * float(np.min(m))  # work integrals: an energy scale
     return np.concatenate([np.full(model.N, v * T), np.full(model.N, v),
@@ -117,14 +121,22 @@ EVENT_TOL = 1e-12
 
 def _event_scales(model) -> np.ndarray:
     """The scale of each event function of the IF-D law: a length (``v_scale`` times the contact
-    time scale) for its deformation bounds, ``v_scale`` for its closing rate; 0 for the events of
-    other parts (no restart shift: :func:`_restart`)."""
+    time scale) for its deformation bounds, ``v_scale`` for its closing rate; ``v_scale`` for a
+    brake's stop (a sliding vehicle's speed through zero); 0 for the other events (no restart
+    shift: :func:`_restart`).
+
+    (A held vehicle keeps a speed of a rounding error, -3e-17 m/s: when it broke away under a net
+    force equal to its friction limit, with mu = mu_static, its stop fired at once, then its
+    break-away, to the event limit. With a scale its stop starts a rounding error past its surface
+    and is shifted like an IF-D event.)"""
     L, V = model.v_scale * model.time_scale(), model.v_scale
     out = np.zeros(len(model.events))
     for i, (j, w) in enumerate(model.events):
         part = model.parts[j]
         if isinstance(part, HysteresisLaw):
             out[i] = V if part.event_kinds[w] == "vmax" else L
+        elif isinstance(part, BrakeEffect) and w == 0:
+            out[i] = V
     return out
 
 
@@ -141,29 +153,38 @@ def _restart(model, disc, p, t0, y0, active, scale, fired):
       loading curve run backwards as if elastic), a braked vehicle's speed a few ulps past zero
       (it slid on with its friction pushing it backwards), or a deformation on a permanent set
       only ``e² D_max`` below the max deformation (a step past it pulls).
-    - An IF-D event (``scale > 0``) that starts exactly *on* its surface (``g == 0``: one an event
-      at this instant placed there) is shifted up by ``EVENT_TOL * scale``, so that it fires only
-      once the motion goes that much further into it (a contact that separated at its permanent
-      set while a neighbour still pushes would otherwise close again at once, again and again: a
-      plastic chain chattering to the event limit).
+      So does one of a part that has just fired, if the new state put it past its surface by
+      more than a rounding error (``EVENT_TOL * scale``).
+    - An IF-D event (``scale > 0``) that starts on its surface or past it and does not go further
+      in (one an event at this instant placed there, a rounding error either way, or a part
+      moving back out) is shifted to start at ``+EVENT_TOL * scale``, so that it fires only once
+      the motion comes back and goes that much further into it. Exactly on it, a contact that
+      separated at its permanent set while a neighbour still pushes would close again at once,
+      again and again (a plastic chain chattering to the event limit); a rounding error past it,
+      the sign test never sees the crossing when the motion comes back: a contact separated a
+      few 1e-18 ft below its permanent set, came back and was never closed again, its vehicles
+      passing through each other until the next event put the contact on the extension of a
+      near-vertical unloading line (e = 1e-6 in a chain: 2e12 lbf, energy out of nothing).
     """
     shift = np.zeros(len(model.events))
     if not active:
         return shift, None
     y0 = np.asarray(y0, float)
     g0 = np.asarray(model.event_values(t0, y0, disc, p), float)
-    past = [i for i in active if g0[i] <= 0 and model.events[i][0] not in fired]
+    tol = EVENT_TOL * scale
+    past = [i for i in active if g0[i] <= 0]
     if past:
         # the rate of each event function along the motion, over a tiny time
         h = 1e-6 * model.time_scale()
         f0 = np.asarray(model.rhs(t0, y0, disc, p), float)
         g1 = np.asarray(model.event_values(t0 + h, y0 + h * f0, disc, p), float)
-        going = [i for i in past if g1[i] < g0[i]]
+        going = [i for i in past if g1[i] < g0[i]
+                 and (model.events[i][0] not in fired or g0[i] < -tol[i])]
         if going:
             return shift, min(going)
     for i in active:
-        if scale[i] > 0 and g0[i] == 0:
-            shift[i] = EVENT_TOL * scale[i]
+        if scale[i] > 0 and g0[i] <= 0:
+            shift[i] = tol[i] - g0[i]
     return shift, None
 
 
@@ -279,7 +300,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                          f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
                          "'closed-form' where they apply")
     p = model.params
-    at = _atol(model, rtol, atol)
+    at_any, at_loading = _atol(model, rtol, atol), _atol(model, rtol, atol, loading=True)
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)
     scale = _event_scales(model)
@@ -305,6 +326,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         # The segment's frame (see _Frame): positions from where the segment starts, moving
         # with its centre of mass.
         frame = _Frame(model, p, t0, y0_abs, m, N)
+        unloading = any(int(st["mode"]) == MODE_UNLOADING for st in disc[: model.K])
+        at = at_any if unloading else at_loading
         pf, to_model = frame.p, frame.to_model
 
         def fun(t, u):

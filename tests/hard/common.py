@@ -113,9 +113,17 @@ def all_finite(r: lsc.Result) -> None:
         assert np.all(np.isfinite(arr)), f"{r.method}: non-finite values in {name}"
     for name in ("delta_v", "v_final", "peak_acceleration", "peak_acceleration_g",
                  "max_deformation", "permanent_deformation", "peak_force", "energy_absorbed",
-                 "energy_returned", "restitution"):
+                 "energy_returned"):
         arr = np.asarray(getattr(r, name), float)
         assert np.all(np.isfinite(arr)), f"{r.method}: non-finite {name} = {arr}"
+    # the restitutions where they are defined: the velocity one of a contact closing at t = 0
+    # (NaN for a contact of a chain that was not), the energy one of a contact that absorbed any
+    closing = -np.diff(np.asarray(r.scene.speeds, float)) > 0
+    assert np.all(np.isfinite(r.restitution[closing])), f"{r.method}: restitution {r.restitution}"
+    assert np.all(np.isnan(r.restitution[~closing])), f"{r.method}: restitution {r.restitution}"
+    loaded = np.asarray(r.energy_absorbed) > 0
+    assert np.all(np.isfinite(r.restitution_energy[loaded])), \
+        f"{r.method}: restitution_energy {r.restitution_energy}"
     assert np.isfinite(r.duration) and r.duration >= 0, f"{r.method}: duration {r.duration}"
     assert np.all(np.diff(r.t) >= 0), f"{r.method}: time runs backwards"
     assert r.method and isinstance(r.tolerances, dict) and isinstance(r.stats, dict)
@@ -180,9 +188,9 @@ def straight_restitution(scene) -> float | None:
 def rebound_floor(scene) -> float:
     """The float64 floor of a backend that integrates the motion (SciPy, diffrax) on a
     near-plastic rebound, relative to the closing speed. The rebound is ``w = e² D_max`` wide and
-    such a backend holds a deformation to ``ε D_max`` at best (the SciPy backend integrates each
-    segment in its own frame for that; absolute positions would hold it only to their own
-    ulps): the rebound speed ``e v0`` is off by about ``ε / e`` of ``v0``, or, below
+    such a backend holds a deformation to ``ε D_max`` at best (both integrate each segment in
+    its own frame for that; absolute positions would hold it only to their own ulps, and diffrax,
+    which did, was off by 2200 ε / e after a foot of travel): the rebound speed ``e v0`` is off by about ``ε / e`` of ``v0``, or, below
     ``w = 4 ε D_max`` where the law drops the rebound (:data:`lsc.contact.REBOUND_RESOLUTION`),
     by ``e``. ``64 ε / e`` bounds the measured errors with a margin of 10."""
     e = straight_restitution(scene)
@@ -191,12 +199,26 @@ def rebound_floor(scene) -> float:
     return min(e, 64 * EPS / e)
 
 
+def position_floor(r: lsc.Result) -> float:
+    """The relative accuracy a deformation has at all when the vehicles have travelled far
+    before or while it forms: positions are held to their ulps, so a deformation ``D_max`` formed
+    after ``x`` of travel (a contact that closes after 3.5 ft at 1e-3 ft/s, 2e-7 ft deep) is
+    known to ``ε x / D_max`` (4e-9 there), and so are the energies and speeds that follow from
+    it."""
+    x = float(np.max(np.abs(r.x))) if r.x.size else 0.0
+    d = np.asarray(r.max_deformation, float)
+    d = d[d > 0]
+    if not d.size or not x > 0:
+        return 0.0
+    return 64 * EPS * x / float(np.min(d))
+
+
 def tolerance(r: lsc.Result) -> float:
     """The relative accuracy (of a ΔV, relative to the closing speed) that ``r``'s backend
     promises: rounding for the exact backends, ``GLOBAL_FACTOR x rtol`` (on the backend's speed
     scale, the largest speed) for the integrators, not below their :func:`rebound_floor`. ``reference`` has no tolerance (first order in
     dt) and is only checked for convergence."""
-    floor = rounding_floor(r.scene)
+    floor = max(rounding_floor(r.scene), position_floor(r))
     if r.method in ("closed-form", "exact"):
         return max(1e-12, floor)
     integ = r.method.split("-", 1)[1]

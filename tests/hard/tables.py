@@ -48,7 +48,7 @@ rel_forces = st.one_of(st.just(0.0), st.floats(1e-3, 1.0))
 
 
 @st.composite
-def loading_tables(draw, kinds=KINDS, n_max=30):
+def loading_tables(draw, kinds=KINDS, n_max=30, n_min=2):
     """``(kind, d, f, e)``: a table shape (``d`` from 0 to 1, ``f`` up to 1) and the energy
     ``e`` under it at the common velocity (the crash is scaled onto it by
     :func:`table_scenes`)."""
@@ -62,7 +62,7 @@ def loading_tables(draw, kinds=KINDS, n_max=30):
         f[0] = 0.0
         frac = draw(st.floats(0.0005, 0.02))   # a few hundred breakpoints crossed
         return kind, d, f, frac * float(Curve.table(np.column_stack([d, f])).cum_energy[-1])
-    n = draw(st.integers(3 if kind in AT_BREAKPOINT else 2, n_max))
+    n = draw(st.integers(max(n_min, 3 if kind in AT_BREAKPOINT else 2), n_max))
     inc = np.array(draw(st.lists(st.floats(0.05, 1.0), min_size=n - 1, max_size=n - 1)))
     d = np.concatenate([[0.0], np.cumsum(inc)])
     d = d / d[-1]
@@ -102,7 +102,7 @@ def loading_tables(draw, kinds=KINDS, n_max=30):
 
 
 @st.composite
-def unloadings(draw, D, F, ke, f_top):
+def unloadings(draw, D, F, ke, f_top, kinds=("restitution", "stiffness", "table")):
     """An unloading rule that completes from ``(D, F)`` with ``ke`` absorbed: a restitution whose
     permanent set is not negative, an unloading stiffness that returns no more than ``ke``, or a
     measured rebound table mapped onto ``(D, F)`` that does neither.
@@ -114,7 +114,7 @@ def unloadings(draw, D, F, ke, f_top):
     ``∝ ε^{1/4}``: 1e-4 of the closing speed from rounding alone, a property of the model."""
     if not F > 1e-6 * f_top:
         return {"restitution": 0.0}
-    kind = draw(st.sampled_from(["restitution", "stiffness", "table"]))
+    kind = draw(st.sampled_from(kinds))
     if kind == "restitution":
         e_max = min(1.0, math.sqrt(0.99 * D * F / (2.0 * ke)))
         e = draw(st.one_of(st.sampled_from([0.0, 1e-6, 1.0]), st.floats(0.0, 1.0),
@@ -141,13 +141,14 @@ def unloadings(draw, D, F, ke, f_top):
 
 
 @st.composite
-def table_scenes(draw, kinds=KINDS, n_max=30):
+def table_scenes(draw, kinds=KINDS, n_max=30, n_min=2,
+                 unload_kinds=("restitution", "stiffness", "table")):
     """``(kind, scene)``: a two-vehicle US scene with a loading table, an unloading rule that
     completes, masses 1:1000 to 1000:1, closing speeds 1e-4 to 150 ft/s, an effective stiffness
     (the table's force over its length) 1e2 to 1e9 lbf/ft and the front vehicle at rest or
     moving: the table shape is scaled so that the vehicles reach their common velocity where
     the shape says."""
-    kind, d, f, e = draw(loading_tables(kinds, n_max))
+    kind, d, f, e = draw(loading_tables(kinds, n_max, n_min))
     (m1, m2), w, v2 = draw(masses), draw(closing_speeds), draw(front_speeds)
     k_eff = draw(stiffnesses)
     mu = m1 * m2 / (m1 + m2)
@@ -156,7 +157,7 @@ def table_scenes(draw, kinds=KINDS, n_max=30):
     fs, ds = math.sqrt(k_eff * ke / e), math.sqrt(ke / (e * k_eff))
     d, f = d * ds, f * fs
     D, F = common_velocity_point(d, f, ke)
-    unloading = draw(unloadings(D, F, ke, float(np.max(f))))
+    unloading = draw(unloadings(D, F, ke, float(np.max(f)), unload_kinds))
     scene = {"units": "US",
              "vehicles": [{"mass": m1, "speed": v2 + w}, {"mass": m2, "speed": v2}],
              "contacts": [{"loading": {"table": np.column_stack([d, f]).tolist()},
