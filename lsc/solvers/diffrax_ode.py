@@ -190,19 +190,28 @@ def _unflat(rows, like):
         tree, [rows[..., i].astype(a.dtype) for i, a in enumerate(leaves)])
 
 
+def _time_scale(p, keys):
+    """``HybridModel.time_scale`` in jnp: the lightest pair on the stiffest of the contacts'
+    slopes named by ``keys`` [s]."""
+    m = p["m"]
+    mu = jnp.min(m[:-1] * m[1:] / (m[:-1] + m[1:]))
+    slopes = [jnp.abs(jnp.reshape(c[key], (-1,))) for c in p["contacts"]
+              for key in keys if key in c]
+    k = jnp.max(jnp.concatenate([jnp.where(jnp.isfinite(s), s, 0.0) for s in slopes])) \
+        if slopes else jnp.asarray(0.0)
+    return jnp.sqrt(mu / jnp.where(k > 0, k, 1.0))
+
+
 def _scales(p):
     """Speed [velocity], contact time [s] and force [force] scales (the first two as
-    HybridModel.v_scale and time_scale; the force one ``μ v / t``, the linear F_max)."""
+    HybridModel.v_scale and time_scale; the force one ``μ v / t``, the linear F_max), and the
+    contact time of the loading slopes alone [s] (``time_scale(loading=True)``)."""
     v = p["v0"]
     v_scale = jnp.maximum(jnp.maximum(jnp.max(jnp.abs(v)), jnp.max(jnp.abs(jnp.diff(v)))), 1e-300)
     m = p["m"]
     mu = jnp.min(m[:-1] * m[1:] / (m[:-1] + m[1:]))
-    slopes = [jnp.abs(jnp.reshape(c[key], (-1,))) for c in p["contacts"]
-              for key in ("ls", "su", "k") if key in c]
-    k = jnp.max(jnp.concatenate([jnp.where(jnp.isfinite(s), s, 0.0) for s in slopes])) \
-        if slopes else jnp.asarray(0.0)
-    t_scale = jnp.sqrt(mu / jnp.where(k > 0, k, 1.0))
-    return v_scale, t_scale, mu * v_scale / t_scale
+    t_scale = _time_scale(p, ("ls", "su", "k"))
+    return v_scale, t_scale, mu * v_scale / t_scale, _time_scale(p, ("ls", "k"))
 
 
 def _law_status(disc):
@@ -461,20 +470,8 @@ class _Core:
 
     def _dtmax(self, disc, p):
         """Longest step [s] in discrete state ``disc``: ``MAX_ANGLE / ω`` for the Gershgorin bound
-        ``ω`` of :meth:`HybridModel.natural_frequency` (written in ``jnp``; ``inf`` when no
-        contact is loaded)."""
-        m = self.model
-        load = jnp.zeros(m.N)
-        for k, (law, st) in enumerate(zip(m.laws, disc[: m.K])):
-            if "s" in st:
-                slope = jnp.abs(st["s"])
-            elif getattr(law, "name", "") in ("kelvin", "brach"):
-                slope = jnp.abs(st["k"])
-            else:
-                continue
-            slope = jnp.where(st["mode"] != 0, 2.0 * slope, 0.0)
-            load = load.at[k].add(slope).at[k + 1].add(slope)
-        w = jnp.sqrt(jnp.max(load / p["m"]))
+        ``ω`` of :meth:`HybridModel.natural_frequency` (``inf`` when no contact is loaded)."""
+        w = self.model.natural_frequency(disc, p, jnp)
         return jnp.where(w > 0, MAX_ANGLE / jnp.where(w > 0, w, 1.0), jnp.inf)
 
     def _point(self, y, args):
@@ -634,13 +631,21 @@ class _Core:
         TRACES["core"] += 1
         m = self.model
         N, K, E, S, C, n = m.N, m.K, self.max_events, self.max_steps, self.capacity, m.n_state
-        v_scale, t_scale, f_scale = _scales(p)
+        v_scale, t_scale, f_scale, t_load = _scales(p)
         sc = jnp.stack([v_scale * t_scale, v_scale, f_scale])[jnp.asarray(self.ev_unit)]
         rv = rtol * v_scale  # default atol: positions, velocities, work integrals (as SciPy)
-        atol = jnp.where(jnp.isnan(atol), jnp.concatenate([
-            jnp.full(N, rv * t_scale), jnp.full(N, rv),
-            jnp.full(n - 2 * N, rv * v_scale * jnp.min(p["m"]))]), atol)
+        own_atol = ~jnp.isnan(atol)
+        atol = jnp.where(own_atol, atol, jnp.concatenate([
+            jnp.full(N, rv * t_load), jnp.full(N, rv),
+            jnp.full(n - 2 * N, rv * v_scale * jnp.min(p["m"]))]))
         atol = jnp.broadcast_to(atol, (n,))
+
+        def segment_atol(disc):
+            """Positions to ``rtol`` of the active pieces' own scale (HybridModel.position_time:
+            a near-plastic rebound line's width), unless the atol was given."""
+            x_tol = rv * m.position_time(disc, t_load, p, jnp)
+            return jnp.where(own_atol, atol, atol.at[:N].set(x_tol))
+
         has_t_end = ~jnp.isnan(t_end)
         horizon = jnp.where(has_t_end, t_end,
                             jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon))
@@ -687,7 +692,8 @@ class _Core:
             g0 = m.event_values(t, y, disc, pf, jnp) / sc
             off = jnp.where(g0 <= 0, EVENT_TOL - g0, 0.0)  # the restart trap
             args = (disc, pf, off, sc, ~over)
-            controller = diffrax.PIDController(rtol=rtol, atol=atol, dtmax=self._dtmax(disc, p))
+            controller = diffrax.PIDController(rtol=rtol, atol=segment_atol(disc),
+                                               dtmax=self._dtmax(disc, p))
             sol = diffrax.diffeqsolve(
                 self.term, stepper, t, horizon, None, y, args=args,
                 saveat=diffrax.SaveAt(steps=record, t1=True, solver_state=True),
@@ -706,7 +712,10 @@ class _Core:
             te, ye, i = self._locate(inner, tp, tb, yp, dense, args)
             tn = jnp.where(fired, te, tn)
             yn = jnp.where(fired, ye, yn)
-            new = lax.switch(i, self.branches, tn, yn, disc, pf)
+            # the event applied to the absolute state (as SciPy's): a law's reference
+            # deformations (D_max, from which a rebound of e = 1e-6, 16 ulps of D_max wide,
+            # is measured) are then the next segment's frame origin to the last bit
+            new = lax.switch(i, self.branches, tn, to_abs(tn, yn), disc, p)
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(fired, a, b), new, disc)
             law, lawk = _law_status(new[:K])
             n_ev = c["n_ev"] + fired.astype(jnp.int32)

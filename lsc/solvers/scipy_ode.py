@@ -30,7 +30,7 @@ import scipy.integrate
 from scipy.integrate import OdeSolution
 from scipy.optimize import brentq
 
-from ..contact import MODE_UNLOADING, HysteresisLaw
+from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
 from .segments import Step, build_result, run_segments
@@ -99,16 +99,14 @@ def _other(integrator: str) -> str:
     return " or ".join(f"integrator {i!r}" for i in others)
 
 
-def _atol(model, rtol: float, atol, loading: bool = False):
-    """Absolute tolerances (2N,): given, or ``rtol`` times the speed scale (and times the
-    contact time scale for positions). ``loading``: for a segment with no contact unloading,
-    whose time scale leaves out the unloading stiffnesses (a rebound line 1e13 times stiffer
-    than the loading asked for positions to 1e-18 ft while loading: LSODA took millions of
-    steps; the rebound is resolved in its own segment's frame)."""
+def _atol(model, rtol: float, atol, disc):
+    """Absolute tolerances (2N,) in discrete state ``disc``: given, or ``rtol`` times the speed
+    scale, times :meth:`HybridModel.position_time` for positions (the loading contact time, or
+    the active pieces' ``1 / ω`` where they are stiffer: a near-plastic rebound line)."""
     if atol is not None:
         return float(atol)
     v = rtol * model.v_scale
-    T = model.time_scale(loading=loading)
+    T = float(model.position_time(disc, model.time_scale(loading=True)))
     m = np.asarray(model.params["m"], float)
     e = v * model.v_scale * float(np.min(m))  # work integrals: an energy scale
     return np.concatenate([np.full(model.N, v * T), np.full(model.N, v),
@@ -300,7 +298,6 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                          f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
                          "'closed-form' where they apply")
     p = model.params
-    at_any, at_loading = _atol(model, rtol, atol), _atol(model, rtol, atol, loading=True)
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)
     scale = _event_scales(model)
@@ -326,8 +323,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         # The segment's frame (see _Frame): positions from where the segment starts, moving
         # with its centre of mass.
         frame = _Frame(model, p, t0, y0_abs, m, N)
-        unloading = any(int(st["mode"]) == MODE_UNLOADING for st in disc[: model.K])
-        at = at_any if unloading else at_loading
+        at = _atol(model, rtol, atol, disc)
         pf, to_model = frame.p, frame.to_model
 
         def fun(t, u):
