@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import event, given
+from hypothesis import event, example, given
 from hypothesis import strategies as st
 
 import lsc
@@ -96,17 +96,45 @@ def _check_chain(r, ref, spread):
     and ``r`` has the same events. Otherwise (a contact that reloads to within a hair of its max
     deformation, again and again, passes it or not by a rounding error, and the sequences of
     events part ways: the final speeds are a discontinuous function of the data there) the
-    conservation laws are all a solve can be held to."""
+    conservation laws are all a solve can be held to. A chain that rings for hundreds of events
+    and thousands of steps, where ``r`` is off by more than its tolerance, is held to converging
+    instead (:func:`_converges`)."""
     check_result(r)
     # (each of the chain's segments starts from an event located to the tolerance: the global
     # error grows with their number, measured ~ √n)
     tol = tolerance(r) * np.sqrt(max(len(r.events), 1))
     if spread <= tol and event_kinds(r) == event_kinds(ref):
+        if _spread(r, ref) > tol:
+            return _converges(r, ref, spread)
         # every vehicle's ΔV (the contact records are the last loading cycle's of contacts that
         # may close several times; their totals are in the energy balance of check_result)
         check_agrees(r, ref, tol=tol, contacts=False)
         return True
     return False
+
+
+def _converges(r, ref, spread) -> bool:
+    """``r``'s integrator at ``rtol / 100`` is at least 10 times closer to the tight solve ``ref``
+    (or within 10 times the spread of the two tight solves): the error is the integrator's global
+    error, shrinking with its tolerance, not a missed or mislocated event (which does not).
+
+    A light vehicle ringing between heavy ones for hundreds of events amplifies every step's
+    error: RK45 at rtol 1e-10 was off by 1.9e-4 of the closing speed over 126 events and 3961
+    steps (1.9e-5 at 1e-11, 2.7e-6 at 1e-12; the tight DOP853 solves themselves 4e-7 apart)."""
+    method, integrator = r.method.split("-", 1)
+    kw = dict(method=method, integrator=integrator, rtol=r.tolerances["rtol"] / 100)
+    if method == "scipy":
+        kw.update(LIMITS)
+    r2 = _solve_or_chatter(r.scene, **kw)
+    if r2 is None or event_kinds(r2) != event_kinds(ref):
+        return False
+    check_result(r2)
+    dv, dv2 = _spread(r, ref), _spread(r2, ref)
+    assert dv2 <= max(dv / 10, 10 * spread), \
+        f"{r.method}: ΔV off by {dv:.3g} of the closing speed at rtol {r.tolerances['rtol']:g} " \
+        f"and by {dv2:.3g} at rtol {kw['rtol']:g}: it does not converge to the tight solve"
+    event("a ringing chain, off by more than its tolerance: held to converging")
+    return True
 
 
 #: Limits that keep every case to a few seconds (a chain that chatters, or a light vehicle
@@ -126,8 +154,30 @@ def _solve_or_chatter(scene, **kw):
         return None
 
 
+#: Found by hard mode: a 1-slug car between heavy ones rings for 126 events and 8.5 s.
+RINGING_CHAIN = ("gaps", {
+    "units": "US",
+    "vehicles": [{"mass": 962.5459904836925, "speed": -8.6842768244478},
+                 {"mass": 1.0, "speed": -9.6842768244478},
+                 {"mass": 9.655748893294033, "speed": -9.6842768244478},
+                 {"mass": 92.91721885994787, "speed": -9.6842768244478},
+                 {"mass": 18.042913370923355, "speed": -10.021021749807918}],
+    "contacts": [
+        {"loading": {"stiffness": 6359.559141829481}, "unloading": {"restitution": 1.0},
+         "gap": 1.0},
+        {"loading": {"table": [[0.0, 0.0], [0.3333293252898579, 21189.35055053661],
+                               [0.6666586505797159, 21189.35055053661],
+                               [1000.0, 635285562.4529856]]},
+         "unloading": {"restitution": 0.6156488066525219}, "gap": 0.0},
+        {"loading": {"stiffness": 2103.0365616566},
+         "unloading": {"restitution": 0.5995179204290741}, "gap": 0.45637677976761276},
+        {"loading": {"stiffness": 893.9211635352732}, "unloading": {"restitution": 1.0},
+         "gap": 0.0}]})
+
+
 @hard_settings(16)
 @given(chains(n_max=5 if HARD else 4, e_min=0.2))
+@example(RINGING_CHAIN)
 def test_chains_integrators_agree_with_a_tight_solve(case):
     start, scene = case
     tight = dict(method="scipy", integrator="DOP853", **LIMITS)
