@@ -560,9 +560,9 @@ CSV_BAD = [
 ]
 
 
-@pytest.mark.parametrize("text, phrase", [b[1:] for b in CSV_BAD], ids=[b[0] for b in CSV_BAD])
-def test_malformed_csv(tmp_path, text, phrase):
-    name = "missing.csv" if text is None else "c.csv"
+def _csv_message(tmp_path, text, name="c.csv"):
+    """The SceneError message of the paper scene loading from CSV file ``name`` holding
+    ``text`` (None: no file written); the error's path must be the csv field."""
     if text is not None:
         (tmp_path / name).write_text(text)
     d = paper()
@@ -570,7 +570,12 @@ def test_malformed_csv(tmp_path, text, phrase):
     with pytest.raises(SceneError) as ei:
         Scene.load(d, base_dir=tmp_path)
     assert ei.value.path == "contacts[0].loading.csv"
-    assert phrase in ei.value.message
+    return ei.value.message
+
+
+@pytest.mark.parametrize("text, phrase", [b[1:] for b in CSV_BAD], ids=[b[0] for b in CSV_BAD])
+def test_malformed_csv(tmp_path, text, phrase):
+    assert phrase in _csv_message(tmp_path, text, "missing.csv" if text is None else "c.csv")
 
 
 # lsc.solve options: (name, options, path, accepted-values phrase)
@@ -670,14 +675,7 @@ def test_chain_not_closing():
 
 def test_csv_errors(tmp_path):
     def load(text, name="c.csv"):
-        if text is not None:
-            (tmp_path / name).write_text(text)
-        d = paper()
-        d["contacts"][0]["loading"] = {"csv": name}
-        with pytest.raises(SceneError) as ei:
-            Scene.load(d, base_dir=tmp_path)
-        assert ei.value.path == "contacts[0].loading.csv"
-        return ei.value.message
+        return _csv_message(tmp_path, text, name)
 
     assert "file not found" in load(None, "missing.csv") and "missing.csv" in load(None, "missing.csv")
     assert "no data rows" in load("")
