@@ -99,14 +99,15 @@ def _other(integrator: str) -> str:
     return " or ".join(f"integrator {i!r}" for i in others)
 
 
-def _atol(model, rtol: float, atol, disc):
+def _atol(model, rtol: float, atol, disc, t_load: float):
     """Absolute tolerances (2N,) in discrete state ``disc``: given, or ``rtol`` times the speed
-    scale, times :meth:`HybridModel.position_time` for positions (the loading contact time, or
-    the active pieces' ``1 / ω`` where they are stiffer: a near-plastic rebound line)."""
+    scale, times :meth:`HybridModel.position_time` for positions (``t_load``, the loading
+    contact time, or the active pieces' ``1 / ω`` where they are stiffer: a near-plastic
+    rebound line)."""
     if atol is not None:
         return float(atol)
     v = rtol * model.v_scale
-    T = float(model.position_time(disc, model.time_scale(loading=True)))
+    T = float(model.position_time(disc, t_load))
     m = np.asarray(model.params["m"], float)
     e = v * model.v_scale * float(np.min(m))  # work integrals: an energy scale
     return np.concatenate([np.full(model.N, v * T), np.full(model.N, v),
@@ -301,6 +302,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)
     scale = _event_scales(model)
+    t_load = model.time_scale(loading=True)   # (for each segment's position tolerance)
     # an event past its surface by less only touched it (100 rtol: the global error of a
     # deformation, here 2.7e-12 of D_max at rtol 1e-12)
     touch = max(EVENT_TOL, 100 * rtol) * scale
@@ -323,7 +325,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         # The segment's frame (see _Frame): positions from where the segment starts, moving
         # with its centre of mass.
         frame = _Frame(model, p, t0, y0_abs, m, N)
-        at = _atol(model, rtol, atol, disc)
+        at = _atol(model, rtol, atol, disc, t_load)
         pf, to_model = frame.p, frame.to_model
 
         def fun(t, u):
