@@ -182,3 +182,15 @@ def test_to_xarray_without_xarray_says_how_to_install_it(grid, monkeypatch):
     monkeypatch.setitem(sys.modules, "xarray", None)  # as if it were not installed
     with pytest.raises(ImportError, match=r'to_xarray needs xarray: pip install "lsc\[frames\]"'):
         sweep_xarray(grid)
+
+
+def test_a_swept_path_whose_unit_lsc_does_not_know_gets_none_not_dimensionless():
+    kelvin = {"units": "US", "g": "32.2 ft/s^2",
+              "vehicles": [{"weight": 3500, "speed": 10}, {"weight": 3500, "speed": 0}],
+              "contacts": [{"law": "kelvin", "stiffness": 24000, "damping": 100}]}
+    s = lsc.sweep(kelvin, {"contacts.0.damping": [50.0, 100.0]})
+    df = sweep_frame(s)
+    assert "contacts.0.damping" in df.columns and df.attrs["units"]["contacts.0.damping"] is None
+    np.testing.assert_array_equal(df["peak_force[0] (lbf)"].to_numpy(), s.peak_force[:, 0])
+    pytest.importorskip("xarray")
+    assert "units" not in sweep_xarray(s)["contacts.0.damping"].attrs
