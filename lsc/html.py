@@ -3,7 +3,9 @@
 :func:`result_html` shows one crash: every metric of :data:`lsc.result.METRICS` per vehicle and
 per contact, the scene's own, the method and tolerances, and any accuracy warning.
 :func:`sweep_html` shows a sweep: the swept paths' ranges, each metric's range over the solved
-members, and the failures. Numbers are given to 6 significant digits with their units; every
+members, and the failures. :func:`summary_html` shows any result with a plain-text
+``summary()`` (the analyses' :class:`~lsc.analysis.Bound`, :class:`~lsc.analysis.MonteCarlo`,
+:class:`~lsc.analysis.Sensitivity`, :class:`~lsc.analysis.Calibration`) as that text. Numbers are given to 6 significant digits with their units; every
 name from the scene is escaped. No pandas, no scripts, no external URL.
 """
 
@@ -16,7 +18,7 @@ import numpy as np
 from .frames import _path_unit, contact_labels, vehicle_labels
 from .result import METRICS
 
-__all__ = ["result_html", "sweep_html"]
+__all__ = ["result_html", "sweep_html", "summary_html"]
 
 #: At most this many failure messages of a sweep are listed (their count is always given).
 MAX_FAILURES_SHOWN = 5
@@ -126,3 +128,10 @@ def sweep_html(sweep_result) -> str:
         tail = f"<p>… and {more} more (see status)</p>" if more > 0 else ""
         parts.append(f"<p><b>failed members</b></p><ul>{items}</ul>{tail}")
     return _wrap(parts)
+
+
+# --------------------------------------------------------------------------- analyses
+def summary_html(obj) -> str:
+    """Any result with a plain-text ``summary()`` (the analyses' results) as an HTML fragment:
+    that table, escaped, in a ``<pre>`` block, so that its columns stay aligned."""
+    return _wrap([f"<pre>{escape(obj.summary())}</pre>"])

@@ -2,6 +2,7 @@
 are escaped, warnings and sweep failures are shown."""
 
 import re
+from html import unescape
 from html.parser import HTMLParser
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 
 import lsc
 from lsc import data
-from lsc.html import result_html, sweep_html
+from lsc.html import result_html, summary_html, sweep_html
 from lsc.result import METRICS
 
 
@@ -94,3 +95,13 @@ def test_sweep_html_shows_ranges_and_failures():
     assert "member 2: SceneError: vehicles[0].speed: the vehicles are not closing" in html
     assert "-2" in cells and "6" in cells  # the swept range includes the failed member
     assert "<script>" not in html and "script" not in parse(html).tags
+
+
+def test_an_analysis_result_is_shown_as_its_own_summary_escaped():
+    from lsc.analysis import max_closing_speed
+
+    bound = max_closing_speed(hostile(), "5000 lbf")
+    html = summary_html(bound)
+    pre = re.search(r"<pre>(.*)</pre>", html, re.DOTALL).group(1)
+    assert unescape(pre) == bound.summary()
+    assert "<script>" not in html and "&lt;b&gt;&amp;" in html
