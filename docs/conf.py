@@ -1,6 +1,7 @@
 """Sphinx configuration for lsc.
 
-Build: ``pip install ".[docs]" && sphinx-build -W -b html docs docs/_build/html``.
+Build: ``pip install ".[docs]" && sphinx-build -W -b html docs docs/_build/html``; the ``docs``
+extra brings everything the worked examples run (JAX and diffrax included) and a bundled MathJax.
 The worked examples in ``docs/examples`` run at build time (sphinx-gallery), so every number in
 them comes from the code.
 """
@@ -15,6 +16,9 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
+    # MathJax served from the built site's _static/mathjax, not from a CDN: the pages show
+    # their equations without internet access (it sets mathjax_path)
+    "sphinx-mathjax-offline",
     "sphinx.ext.viewcode",
     "sphinx_gallery.gen_gallery",
 ]
