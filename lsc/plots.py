@@ -5,7 +5,8 @@
 - :func:`velocity`: velocity against time per vehicle (Fig. 7);
 - :func:`ifd_loop`: force against deformation per contact, loading and unloading branches
   (the IF-D loop, Fig. 3);
-- :func:`save_all`: the three as ``acceleration.png``, ``velocity.png`` and ``ifd.png``;
+- :func:`save_all`: the three as ``acceleration.png``, ``velocity.png`` and ``ifd.png`` (all or
+  none, never over an earlier run's unless ``overwrite=True``);
 - :func:`tornado`: a tornado chart of the sensitivities of one metric
   (:func:`lsc.analysis.sensitivity`);
 - :func:`sweep_metric`: one metric of a sweep against the swept parameter.
