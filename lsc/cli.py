@@ -119,6 +119,7 @@ def write_outputs(result, out_dir, plots: bool = True, extra: dict | None = None
 
 
 def add_overwrite_option(p) -> None:
+    """Declare ``--overwrite`` on the subcommand parser ``p`` (for commands that write files)."""
     p.add_argument("--overwrite", action="store_true",
                    help="replace the output files of an earlier run (default: refuse, exit 2)")
 
@@ -238,14 +239,14 @@ def _cmd_sweep(args) -> int:
     params = dict(_sweep_values(t) for t in args.param)
     opts = {k: v for k, v in (("rtol", args.rtol), ("dt", args.dt)) if v is not None}
     out = Path(args.out)
-    refuse_existing([out / "sweep.csv", out / "sweep.png"], args.overwrite)
+    files = [out / "sweep.csv", out / "sweep.png"]
+    refuse_existing(files, args.overwrite)
     s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
     writers = {out / "sweep.csv": s.to_csv}
     if not args.no_plots:
         from .plots import sweep_metric
         writers[out / "sweep.png"] = lambda file: sweep_metric(s, args.metric, args.index, file)
-    written = write_files(writers, overwrite=args.overwrite,
-                          replaces=[out / "sweep.csv", out / "sweep.png"])
+    written = write_files(writers, overwrite=args.overwrite, replaces=files)
     n, bad = s.stats["members"], s.stats["failed"]
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
           + (f", {bad} failed (see the status column)" if bad else ""))
