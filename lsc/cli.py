@@ -7,8 +7,13 @@
 
 ``SCENE`` is a TOML file or the name of a packaged scene (``lsc scenes`` lists them); without it
 ``lsc run`` runs the packaged default. Exit status: 0 done, 1 the physics could not be completed
-(:class:`lsc.SimulationError`) or the output could not be written, 2 bad input
-(:class:`lsc.SceneError` or bad arguments), with one line on stderr.
+(:class:`lsc.SimulationError`), the output could not be written, or the reader of the output
+went away (``lsc run | head``: stdout is a closed pipe, nothing more is printed and no traceback),
+2 bad input (:class:`lsc.SceneError` or bad arguments, or output files of an earlier run in the
+way without ``--overwrite``), with one line on stderr.
+
+Output files are written all at once or not at all, and never over an earlier run's unless
+``--overwrite`` is given (:mod:`lsc.outputs`).
 
 Each subcommand is a pair of small functions, ``_add_<name>(subparsers)`` that declares it and
 ``_cmd_<name>(args)`` that runs it and returns the exit status; add new ones to ``COMMANDS``.
@@ -20,6 +25,7 @@ import argparse
 import csv
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -27,8 +33,9 @@ import numpy as np
 
 from . import __version__
 from .errors import SceneError, SimulationError
+from .outputs import OutputError, OutputExistsError, refuse_existing, write_files
 
-__all__ = ["main", "resolve_scene", "write_outputs"]
+__all__ = ["main", "resolve_scene", "write_outputs", "json_writer"]
 
 DEFAULT_SCENE = "default"
 DEFAULT_OUT = "lsc-out"
@@ -78,21 +85,43 @@ def write_series_csv(result, file) -> None:
         w.writerows([repr(float(x)) for x in row] for row in data)
 
 
-def write_outputs(result, out_dir, plots: bool = True, extra: dict | None = None) -> list[Path]:
-    """Write ``series.csv``, ``summary.json`` (``result.to_dict()`` plus ``extra``) and, with
-    ``plots``, the three PNG figures into ``out_dir``; returns the paths written."""
+def json_writer(obj):
+    """A writer (for :func:`lsc.outputs.write_files`) of ``obj`` as indented strict JSON:
+    numpy values as Python ones, non-finite numbers as ``null``."""
+    def write(file):
+        with open(file, "w", encoding="utf-8") as fh:
+            json.dump(_finite(obj), fh, indent=2, allow_nan=False, ensure_ascii=False)
+            fh.write("\n")
+    return write
+
+
+def run_files(out_dir) -> list[Path]:
+    """Every file ``lsc run`` may write into ``out_dir`` (the figures too): an earlier run's
+    files that are in the way, or that a ``--no-plots`` run with ``--overwrite`` removes."""
+    from .plots import FILES
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    write_series_csv(result, out / "series.csv")
-    summary = {**result.to_dict(), **(extra or {})}
-    with open(out / "summary.json", "w", encoding="utf-8") as fh:
-        json.dump(_finite(summary), fh, indent=2, allow_nan=False, ensure_ascii=False)
-        fh.write("\n")
-    written = [out / "series.csv", out / "summary.json"]
+    return [out / "series.csv", out / "summary.json", *(out / f for f in FILES)]
+
+
+def write_outputs(result, out_dir, plots: bool = True, extra: dict | None = None, *,
+                  overwrite: bool = False) -> list[Path]:
+    """Write ``series.csv``, ``summary.json`` (``result.to_dict()`` plus ``extra``) and, with
+    ``plots``, the three PNG figures into ``out_dir``, all or none; returns the paths written.
+    Refuses to replace an earlier run's files (:class:`lsc.outputs.OutputExistsError`) unless
+    ``overwrite``, which also removes the figures of an earlier run when ``plots`` is false."""
+    out = Path(out_dir)
+    writers = {out / "series.csv": lambda file: write_series_csv(result, file),
+               out / "summary.json": json_writer({**result.to_dict(), **(extra or {})})}
     if plots:
-        from .plots import save_all
-        written += save_all(result, out)
-    return written
+        from .plots import figure_writers
+        writers.update({out / f: w for f, w in figure_writers(result).items()})
+    return write_files(writers, overwrite=overwrite, replaces=run_files(out))
+
+
+def add_overwrite_option(p) -> None:
+    """Declare ``--overwrite`` on the subcommand parser ``p`` (for commands that write files)."""
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the output files of an earlier run (default: refuse, exit 2)")
 
 
 def _solver_options(args) -> dict:
@@ -128,24 +157,22 @@ def _add_run(sub) -> None:
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output folder (default: {DEFAULT_OUT}/)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figures")
+    add_overwrite_option(p)
     p.set_defaults(func=_cmd_run)
 
 
 def _cmd_run(args) -> int:
     from .api import solve
     scene = resolve_scene(args.scene)
+    refuse_existing(run_files(args.out), args.overwrite)  # before the solve, not after
     result = solve(scene, method=args.method, **_solver_options(args))
     print(result.summary())
     from .analysis.mer import format_mer
     mer = format_mer(result)
     if mer:
         print("\n" + mer if isinstance(mer, str) else "\n" + "\n".join(mer))
-    try:
-        written = write_outputs(result, args.out, plots=not args.no_plots, extra={
-            "input": args.scene or DEFAULT_SCENE, "lsc_version": __version__})
-    except OSError as e:
-        _error(f"cannot write to {args.out}: {e.strerror or e}")
-        return 1
+    written = write_outputs(result, args.out, plots=not args.no_plots, overwrite=args.overwrite,
+                            extra={"input": args.scene or DEFAULT_SCENE, "lsc_version": __version__})
     print(f"\nwritten to {args.out}/: " + ", ".join(p.name for p in written))
     return 0
 
@@ -202,6 +229,7 @@ def _add_sweep(sub) -> None:
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output folder (default: {DEFAULT_OUT}/)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figure")
+    add_overwrite_option(p)
     p.set_defaults(func=_cmd_sweep)
 
 
@@ -210,18 +238,15 @@ def _cmd_sweep(args) -> int:
     scene = resolve_scene(args.scene)
     params = dict(_sweep_values(t) for t in args.param)
     opts = {k: v for k, v in (("rtol", args.rtol), ("dt", args.dt)) if v is not None}
-    s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
     out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        s.to_csv(out / "sweep.csv")
-        written = [out / "sweep.csv"]
-        if not args.no_plots:
-            from .plots import sweep_metric
-            written.append(sweep_metric(s, args.metric, args.index, out / "sweep.png"))
-    except OSError as e:
-        _error(f"cannot write to {args.out}: {e.strerror or e}")
-        return 1
+    files = [out / "sweep.csv", out / "sweep.png"]
+    refuse_existing(files, args.overwrite)
+    s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
+    writers = {out / "sweep.csv": s.to_csv}
+    if not args.no_plots:
+        from .plots import sweep_metric
+        writers[out / "sweep.png"] = lambda file: sweep_metric(s, args.metric, args.index, file)
+    written = write_files(writers, overwrite=args.overwrite, replaces=files)
     n, bad = s.stats["members"], s.stats["failed"]
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
           + (f", {bad} failed (see the status column)" if bad else ""))
@@ -273,8 +298,30 @@ def _error(message: str) -> None:
     print(f"lsc: error: {' '.join(str(message).split())}", file=sys.stderr)
 
 
+def _stdout_gone() -> None:
+    """The reader of stdout went away (``lsc run | head``): point stdout at the null device so
+    that Python's final flush does not fail again (the Python docs' note on SIGPIPE)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):  # not a real file (e.g. captured by a test)
+        pass
+
+
 def main(argv=None) -> int:
-    """Run ``lsc`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit status."""
+    """Run ``lsc`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit status: 1, with
+    nothing printed, when stdout is a pipe whose reader has gone (what was not yet printed or
+    written is not: the command did not finish)."""
+    try:
+        status = _run_command(argv)
+        sys.stdout.flush()
+        return status
+    except BrokenPipeError:
+        _stdout_gone()
+        return 1
+
+
+def _run_command(argv) -> int:
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as e:  # --help, --version, usage errors (argparse printed them)
@@ -284,6 +331,14 @@ def main(argv=None) -> int:
     except SceneError as e:
         _error(f"{e.path}: {e.message}" if e.path else e.message)
         return 2
+    except OutputExistsError as e:
+        _error(f"{', '.join(map(str, e.paths))} already exist{'s' if len(e.paths) == 1 else ''}"
+               " (the results of an earlier run): pass --overwrite to replace them, or write "
+               "elsewhere")
+        return 2
+    except OutputError as e:
+        _error(f"cannot write {e.filename}: {e.strerror}; nothing was written")
+        return 1
     except SimulationError as e:
         _error(e)
         return 1

@@ -5,7 +5,8 @@
 - :func:`velocity`: velocity against time per vehicle (Fig. 7);
 - :func:`ifd_loop`: force against deformation per contact, loading and unloading branches
   (the IF-D loop, Fig. 3);
-- :func:`save_all`: the three as ``acceleration.png``, ``velocity.png`` and ``ifd.png``;
+- :func:`save_all`: the three as ``acceleration.png``, ``velocity.png`` and ``ifd.png`` (all or
+  none, never over an earlier run's unless ``overwrite=True``);
 - :func:`tornado`: a tornado chart of the sensitivities of one metric
   (:func:`lsc.analysis.sensitivity`);
 - :func:`sweep_metric`: one metric of a sweep against the swept parameter.
@@ -189,19 +190,31 @@ def ifd_loop(result, ax=None):
     return fig
 
 
-def save_all(result, out_dir, dpi: int = 150) -> list[Path]:
-    """Write ``acceleration.png``, ``velocity.png`` and ``ifd.png`` into ``out_dir`` (created if
-    needed); returns their paths. Uses no GUI backend (figures are not kept by pyplot)."""
+def figure_writers(result, dpi: int = 150) -> dict:
+    """``file name → writer(path)`` for the three figures of :func:`save_all` (for
+    :func:`lsc.outputs.write_files`). Uses no GUI backend (figures are not kept by pyplot)."""
     from matplotlib.figure import Figure
+
+    def writer(draw, figsize):
+        def write(path):
+            fig = Figure(figsize=figsize, layout="constrained")
+            draw(result, ax=fig.add_subplot())
+            fig.savefig(path, dpi=dpi)
+        return write
+
+    return {file: writer(draw, (6.5, 4.5) if draw is ifd_loop else (7.0, 4.5))
+            for file, draw in zip(FILES, (acceleration, velocity, ifd_loop))}
+
+
+def save_all(result, out_dir, dpi: int = 150, *, overwrite: bool = False) -> list[Path]:
+    """Write ``acceleration.png``, ``velocity.png`` and ``ifd.png`` into ``out_dir`` (created if
+    needed), all three or none; returns their paths. Refuses to replace those of an earlier run
+    (:class:`lsc.outputs.OutputExistsError`, a ``FileExistsError``) unless ``overwrite=True``;
+    a file that cannot be written raises :class:`lsc.outputs.OutputError` (an ``OSError``)."""
+    from .outputs import write_files
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for file, draw in zip(FILES, (acceleration, velocity, ifd_loop)):
-        fig = Figure(figsize=(6.5, 4.5) if draw is ifd_loop else (7.0, 4.5), layout="constrained")
-        draw(result, ax=fig.add_subplot())
-        fig.savefig(out / file, dpi=dpi)
-        written.append(out / file)
-    return written
+    return write_files({out / f: w for f, w in figure_writers(result, dpi).items()},
+                       overwrite=overwrite)
 
 
 def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None):

@@ -130,3 +130,84 @@ def test_run_prints_the_mer_cross_check(main, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "MER cross-check" in text
     assert "target: delta_v +4.5 ft/s (MER), +4.5 ft/s (simulation)" in text
+
+
+# --------------------------------------------------------------------------- output files
+def _files(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+def _no_space(*args, **kwargs):
+    raise OSError(28, "No space left on device")
+
+
+def test_mc_outputs_all_or_none_and_never_over_an_earlier_run(main, tmp_path, capsys,
+                                                              monkeypatch):
+    from lsc.analysis.uncertainty import MonteCarlo
+    f = tmp_path / "mc.toml"
+    f.write_text(TABLE3 + UNCERTAINTY)
+    out = tmp_path / "out"
+    mc = ["mc", str(f), "--n", "200", "--no-progress", "--out", str(out)]
+    assert main(mc) == 0
+    first = _files(out)
+    names = ["mc.csv", "mc_delta_v.png", "mc_duration.png", "mc_peak_acceleration_g.png",
+             "mc_peak_force.png"]
+    assert sorted(first) == names
+    capsys.readouterr()
+    assert main(mc + ["--seed", "1"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == ""  # refused before sampling
+    assert cap.err.startswith(f"lsc: error: {out / 'mc.csv'}, {out / 'mc_delta_v.png'}, ")
+    assert cap.err.endswith(" already exist (the results of an earlier run): pass --overwrite to "
+                            "replace them, or write elsewhere\n") and cap.err.count("\n") == 1
+    assert _files(out) == first
+    with monkeypatch.context() as m:  # the last histogram fails: nothing new, nothing lost
+        m.setattr(MonteCarlo, "histogram", lambda self, metric, ax=None:
+                  _no_space() if metric == "peak_force" else None)
+        assert main(mc + ["--seed", "1", "--overwrite"]) == 1
+    assert capsys.readouterr().err == (f"lsc: error: cannot write {out / 'mc_peak_force.png'}: "
+                                       "No space left on device; nothing was written\n")
+    assert _files(out) == first
+    assert main(mc + ["--seed", "1", "--overwrite", "--no-plots"]) == 0
+    assert sorted(_files(out)) == ["mc.csv"] and (out / "mc.csv").read_bytes() != first["mc.csv"]
+
+
+def test_bound_json_is_not_written_over_an_earlier_one(main, tmp_path, capsys):
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    out = tmp_path / "b.json"
+    bound = ["bound", str(f), "--json", str(out), "--failure-force"]
+    assert main(bound + ["5000 lbf"]) == 0
+    first = out.read_bytes()
+    capsys.readouterr()
+    assert main(bound + ["6000 lbf"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "" and cap.err == (f"lsc: error: {out} already exists (the results of an "
+                                         "earlier run): pass --overwrite to replace them, or "
+                                         "write elsewhere\n")
+    assert out.read_bytes() == first
+    assert main(bound + ["6000 lbf", "--overwrite"]) == 0
+    assert json.loads(out.read_text())["failure_force"] == 6000
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.json", "t3.toml"]  # no debris
+
+
+def test_sensitivity_files_all_or_none(main, tmp_path, capsys, monkeypatch):
+    import lsc.plots
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    js, png = tmp_path / "s.json", tmp_path / "t.png"
+    sens = ["sensitivity", str(f), "--method", "finite-difference", "--metrics", "delta_v",
+            "--json", str(js), "--plot"]
+    assert main(sens + [str(js)]) == 2
+    assert capsys.readouterr().err == f"lsc: error: json: --plot and --json name the same file " \
+                                      f"({js})\n"
+    js.write_text("earlier")
+    assert main(sens + [str(png)]) == 2
+    assert capsys.readouterr().out == ""
+    monkeypatch.setattr(lsc.plots, "tornado", _no_space)
+    assert main(sens + [str(png), "--overwrite"]) == 1
+    assert "cannot write" in capsys.readouterr().err
+    assert js.read_text() == "earlier" and not png.exists()
+    monkeypatch.undo()
+    assert main(sens + [str(png), "--overwrite"]) == 0
+    assert json.loads(js.read_text())["params"] and png.stat().st_size > 1000

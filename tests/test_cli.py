@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import lsc
+import lsc.plots
 from lsc.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -219,3 +220,120 @@ def test_python_dash_m_lsc(tmp_path):
     p = subprocess.run([sys.executable, "-m", "lsc", "run", "nosuchscene"], cwd=tmp_path,
                        env=env, capture_output=True, text=True, timeout=300)
     assert p.returncode == 2 and p.stderr.count("\n") == 1
+
+
+# --------------------------------------------------------------------------- output files
+def _files(folder: Path) -> dict:
+    """Every entry of ``folder`` (hidden ones too) → its bytes."""
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+def _exists_error(*paths) -> str:
+    return (f"lsc: error: {', '.join(map(str, paths))} already exist"
+            f"{'s' if len(paths) == 1 else ''} (the results of an earlier run): pass "
+            "--overwrite to replace them, or write elsewhere\n")
+
+
+def test_a_second_run_is_refused_before_solving_and_overwrite_replaces(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert _run(["run", "default", "--no-plots", "--out", str(out)], capsys)[0] == 0
+    first = _files(out)
+    assert sorted(first) == ["series.csv", "summary.json"]
+    rc, stdout, err = _run(["run", "table3", "--no-plots", "--out", str(out)], capsys)
+    assert (rc, stdout) == (2, "")  # refused before the solve: no summary printed
+    assert err == _exists_error(out / "series.csv", out / "summary.json")
+    assert _files(out) == first
+    rc, stdout, _ = _run(["run", "table3", "--no-plots", "--out", str(out), "--overwrite"], capsys)
+    assert rc == 0 and f"written to {out}/: series.csv, summary.json" in stdout
+    assert sorted(_files(out)) == ["series.csv", "summary.json"]
+    js, js0 = json.loads((out / "summary.json").read_text()), json.loads(first["summary.json"])
+    assert js0["input"] == "default" and js["input"] == "table3"
+    assert js["metrics"]["peak_force"] != js0["metrics"]["peak_force"]
+    assert (out / "series.csv").read_bytes() != first["series.csv"]
+
+
+def _no_space(*args, **kwargs):
+    raise OSError(28, "No space left on device")
+
+
+def test_a_failing_figure_leaves_the_earlier_run_intact(tmp_path, capsys, monkeypatch):
+    """The last file fails: none of the new ones is written, the earlier ones stay byte for byte;
+    a --no-plots run with --overwrite then removes the earlier figures (no mixed folder)."""
+    out = tmp_path / "o"
+    assert _run(["run", "default", "--out", str(out)], capsys)[0] == 0
+    first = _files(out)
+    assert sorted(first) == ["acceleration.png", "ifd.png", "series.csv", "summary.json",
+                             "velocity.png"]
+    monkeypatch.setattr(lsc.plots, "ifd_loop", _no_space)
+    rc, _, err = _run(["run", "table3", "--out", str(out), "--overwrite"], capsys)
+    assert rc == 1
+    assert err == f"lsc: error: cannot write {out / 'ifd.png'}: No space left on device; " \
+                  "nothing was written\n"
+    assert _files(out) == first
+    rc, _, err = _run(["run", "table3", "--out", str(tmp_path / "new" / "o")], capsys)
+    assert rc == 1 and not (tmp_path / "new").exists(), "no folder left behind"
+    monkeypatch.undo()
+    rc, _, err = _run(["run", "default", "--no-plots", "--out", str(out)], capsys)
+    assert rc == 2 and err == _exists_error(out / "series.csv", out / "summary.json",
+                                            out / "acceleration.png", out / "velocity.png",
+                                            out / "ifd.png")
+    assert _run(["run", "table3", "--no-plots", "--out", str(out), "--overwrite"], capsys)[0] == 0
+    assert sorted(_files(out)) == ["series.csv", "summary.json"]
+
+
+def test_a_folder_in_place_of_an_output_file_is_refused(tmp_path, capsys):
+    (tmp_path / "series.csv").mkdir()
+    rc, stdout, err = _run(["run", "--no-plots", "--out", str(tmp_path), "--overwrite"], capsys)
+    assert (rc, stdout) == (1, "")
+    assert err == (f"lsc: error: cannot write {tmp_path / 'series.csv'}: a folder is in the way "
+                   "of the output file; nothing was written\n")
+    assert [p.name for p in tmp_path.iterdir()] == ["series.csv"]
+
+
+def test_sweep_outputs_all_or_none_and_never_over_an_earlier_sweep(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "s"
+    sweep = ["sweep", "default", "--param", "vehicles.0.speed=2:12:3", "--out", str(out)]
+    assert _run(sweep, capsys)[0] == 0
+    first = _files(out)
+    assert sorted(first) == ["sweep.csv", "sweep.png"]
+    rc, stdout, err = _run(sweep[:3] + ["vehicles.0.speed=2:12:4"] + sweep[4:], capsys)
+    assert (rc, stdout) == (2, "") and err == _exists_error(out / "sweep.csv", out / "sweep.png")
+    assert _files(out) == first
+    monkeypatch.setattr(lsc.plots, "sweep_metric", _no_space)
+    rc, _, err = _run(sweep[:3] + ["vehicles.0.speed=2:12:4", "--overwrite"] + sweep[4:], capsys)
+    assert rc == 1 and err.startswith(f"lsc: error: cannot write {out / 'sweep.png'}: No space")
+    assert _files(out) == first
+    monkeypatch.undo()
+    assert _run(sweep[:3] + ["vehicles.0.speed=2:12:4", "--overwrite", "--no-plots"]
+                + sweep[4:], capsys)[0] == 0
+    assert sorted(_files(out)) == ["sweep.csv"]
+    assert (out / "sweep.csv").read_text().count("\n") == 5  # header + 4 members
+
+
+# --------------------------------------------------------------------------- lsc ... | head
+def _env() -> dict:
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+
+
+@pytest.mark.parametrize("unbuffered", ["1", ""], ids=["unbuffered", "buffered"])
+@pytest.mark.parametrize("args", [["run", "--no-plots", "--out", "o"], ["scenes"],
+                                  ["bound", "table3", "--failure-force", "5000 lbf"]],
+                         ids=["run", "scenes", "bound"])
+def test_a_reader_that_stops_early_gets_no_traceback(tmp_path, args, unbuffered):
+    """``lsc run | head``: stdout is a pipe whose reader has gone (here closed before lsc
+    prints anything, so that every write fails, buffered or not): exit 1, nothing on stderr,
+    no partial output."""
+    env = _env()
+    env["PYTHONUNBUFFERED"] = unbuffered
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        p = subprocess.run([sys.executable, "-m", "lsc", *args], cwd=tmp_path, env=env,
+                           stdout=write_end, stderr=subprocess.PIPE, text=True, timeout=300)
+    finally:
+        os.close(write_end)
+    assert p.stderr == ""
+    assert p.returncode == 1
+    if args[0] == "run" and (tmp_path / "o").exists():
+        assert sorted(_files(tmp_path / "o")) == ["series.csv", "summary.json"]

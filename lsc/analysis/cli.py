@@ -2,25 +2,28 @@
 ``COMMANDS``).
 
     lsc bound SCENE --failure-force "5000 lbf" [--contact K] [--speed-path P] [--step S]
-              [--margin-steps N] [--method M] [--json FILE]
+              [--margin-steps N] [--method M] [--json FILE] [--overwrite]
     lsc mc SCENE [--n N] [--seed S] [--uncertainty FILE] [--method M] [--percentiles 5,50,95]
-           [--out DIR] [--no-plots] [--no-progress]
+           [--out DIR] [--no-plots] [--no-progress] [--overwrite]
     lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...] [--method diffrax|finite-difference]
                     [--rtol R] [--backend B] [--plot FILE] [--plot-metric M] [--swing R] [--json FILE]
+                    [--overwrite]
 
 Each is a pair ``add_<name>(subparsers)`` / ``cmd_<name>(args)`` (returns the exit status), as in
 :mod:`lsc.cli`; :class:`lsc.SceneError` and :class:`lsc.SimulationError` propagate to its
-``main``, which prints them on one line and exits 2 or 1.
+``main``, which prints them on one line and exits 2 or 1. Files are written with
+:func:`lsc.outputs.write_files` (all or none; an earlier run's files are refused, before the
+computation, unless ``--overwrite``).
 """
 
 from __future__ import annotations
 
-import json
-import sys
 import tomllib
 from pathlib import Path
 
+from ..cli import add_overwrite_option, json_writer
 from ..errors import SceneError
+from ..outputs import refuse_existing, write_files
 
 __all__ = ["add_bound", "cmd_bound", "add_mc", "cmd_mc", "add_sensitivity", "cmd_sensitivity",
            "COMMANDS", "load_with_uncertainty"]
@@ -55,6 +58,7 @@ def add_bound(sub) -> None:
                    help="steps above the first whole step at or above the root (default 1)")
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
     p.add_argument("--json", metavar="FILE", help="also write the bound as JSON")
+    add_overwrite_option(p)
     p.set_defaults(func=cmd_bound)
 
 
@@ -63,14 +67,13 @@ def cmd_bound(args) -> int:
     from ..cli import resolve_scene
     from .bounds import max_closing_speed
     scene = resolve_scene(args.scene)
+    files = [Path(args.json)] if args.json else []
+    refuse_existing(files, args.overwrite)
     b = max_closing_speed(scene, args.failure_force, contact=args.contact,
                           speed_path=args.speed_path, method=args.method, step=args.step,
                           margin_steps=args.margin_steps)
     print(b.summary())
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(b.to_dict(), fh, indent=2)
-            fh.write("\n")
+    write_files({f: json_writer(b.to_dict()) for f in files}, overwrite=args.overwrite)
     return 0
 
 
@@ -139,7 +142,25 @@ def add_mc(sub) -> None:
                         "histograms here")
     p.add_argument("--no-plots", action="store_true", help="with --out: no histogram PNGs")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_overwrite_option(p)
     p.set_defaults(func=cmd_mc)
+
+
+#: The metrics ``lsc mc`` reports, writes to ``mc.csv`` and draws as ``mc_<metric>.png``.
+MC_METRICS = ("delta_v", "peak_acceleration_g", "duration", "peak_force")
+
+
+def _mc_files(out: Path) -> list[Path]:
+    return [out / "mc.csv", *(out / f"mc_{metric}.png" for metric in MC_METRICS)]
+
+
+def _histogram_writer(mc, metric: str):
+    def write(file):
+        from matplotlib.figure import Figure  # no pyplot: nothing to show or close
+        fig = Figure(figsize=(6.0, 4.0), layout="constrained")
+        mc.histogram(metric, ax=fig.add_subplot())
+        fig.savefig(file, dpi=120)
+    return write
 
 
 def cmd_mc(args) -> int:
@@ -148,27 +169,17 @@ def cmd_mc(args) -> int:
     if args.n < 1:
         raise SceneError("n", f"the number of samples must be positive, got {args.n}")
     scene, dists = load_with_uncertainty(args.scene, args.uncertainty)
+    out = Path(args.out) if args.out else None
+    refuse_existing(_mc_files(out) if out else [], args.overwrite)
     mc = monte_carlo(scene, dists, args.n, seed=args.seed, method=args.method,
                      progress=False if args.no_progress else None, percentiles=args.percentiles)
     print(mc.summary())
-    if args.out:
-        out = Path(args.out)
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-            reported = ("delta_v", "peak_acceleration_g", "duration", "peak_force")
-            mc.sweep.to_csv(out / "mc.csv", metrics=reported)
-            written = ["mc.csv"]
-            if not args.no_plots:
-                from matplotlib.figure import Figure  # no pyplot: nothing to show or close
-                for metric in reported:
-                    fig = Figure(figsize=(6.0, 4.0), layout="constrained")
-                    mc.histogram(metric, ax=fig.add_subplot())
-                    fig.savefig(out / f"mc_{metric}.png", dpi=120)
-                    written.append(f"mc_{metric}.png")
-        except OSError as e:
-            print(f"lsc: error: cannot write to {out}: {e.strerror or e}", file=sys.stderr)
-            return 1
-        print(f"\nwritten to {out}/: " + ", ".join(written))
+    if out:
+        writers = {out / "mc.csv": lambda file: mc.sweep.to_csv(file, metrics=MC_METRICS)}
+        if not args.no_plots:
+            writers.update({out / f"mc_{m}.png": _histogram_writer(mc, m) for m in MC_METRICS})
+        written = write_files(writers, overwrite=args.overwrite, replaces=_mc_files(out))
+        print(f"\nwritten to {out}/: " + ", ".join(p.name for p in written))
     return 0
 
 
@@ -206,6 +217,7 @@ def add_sensitivity(sub) -> None:
                    help="tornado bars as the metric with each parameter moved by +-R of its value "
                         "(default: elasticities)")
     p.add_argument("--json", metavar="FILE", help="also write the sensitivities as JSON")
+    add_overwrite_option(p)
     p.set_defaults(func=cmd_sensitivity)
 
 
@@ -214,6 +226,8 @@ def cmd_sensitivity(args) -> int:
     from ..cli import resolve_scene
     from .sensitivity import sensitivity
     scene = resolve_scene(args.scene)
+    files = _sensitivity_files(args)
+    refuse_existing(files.values(), args.overwrite)
     s = sensitivity(scene, args.params, metrics=args.metrics, method=args.method, rtol=args.rtol,
                     backend=args.backend)
     print(s.summary())
@@ -221,20 +235,24 @@ def cmd_sensitivity(args) -> int:
     if args.plot and metric not in s.derivatives:
         raise SceneError("plot-metric", f"{metric!r} is not among --metrics "
                                         f"({', '.join(s.derivatives)})")
-    try:
-        if args.plot:
-            from ..plots import tornado
-            tornado(s, metric, swing=args.swing, file=args.plot)
-        if args.json:
-            with open(args.json, "w", encoding="utf-8") as fh:
-                json.dump(s.to_dict(), fh, indent=2)
-                fh.write("\n")
-    except OSError as e:
-        print(f"lsc: error: cannot write {e.filename}: {e.strerror or e}", file=sys.stderr)
-        return 1
+    writers = {}
+    if args.plot:
+        from ..plots import tornado
+        writers[files["plot"]] = lambda file: tornado(s, metric, swing=args.swing, file=file)
+    if args.json:
+        writers[files["json"]] = json_writer(s.to_dict())
+    write_files(writers, overwrite=args.overwrite)
     if args.plot:
         print(f"\ntornado chart written to {args.plot}")
     return 0
+
+
+def _sensitivity_files(args) -> dict[str, Path]:
+    """The files of ``--plot`` and ``--json`` (refused when they name the same file)."""
+    files = {k: Path(getattr(args, k)) for k in ("plot", "json") if getattr(args, k)}
+    if len(files) == 2 and files["plot"].resolve() == files["json"].resolve():
+        raise SceneError("json", f"--plot and --json name the same file ({args.json})")
+    return files
 
 
 #: The subcommands this module adds to ``lsc.cli.COMMANDS``.
