@@ -50,8 +50,9 @@ def test_a_simulation_against_its_own_channels_rates_one(result):
     for v in c.vehicles:
         assert v.metrics["peak_acceleration"][2] == 0.0 and v.metrics["pulse_duration"][2] == 0.0
         assert abs(v.metrics["delta_v"][2]) < 1e-3                        # trapezoid vs exact velocity
-    target = c.vehicles[1]   # ΔV at the last 10 kHz sample before separation: the closed form's (1 + e) v0 / 2
-    assert target.metrics["delta_v"][1] == pytest.approx(7.0, rel=1e-5)
+    target = c.vehicles[1]   # the closed form's (1 + e) v0 / 2, uniform motion after separation
+    assert target.metrics["delta_v"][1] == pytest.approx(7.0, rel=1e-12)
+    assert target.t[-1] == pytest.approx(0.15) and c.notes == ()
 
 
 def test_against_a_test_with_another_restitution(scene, result):
@@ -61,12 +62,29 @@ def test_against_a_test_with_another_restitution(scene, result):
     dv_test, pulse_test = closed_form(0.3, scene)
     target = {v.name: v for v in c.vehicles}["target"]
     meas, sim, diff = target.metrics["delta_v"]
-    assert meas == pytest.approx(dv_test, abs=1e-3) and sim == pytest.approx(dv_sim, rel=1e-5)
+    assert meas == pytest.approx(dv_test, abs=1e-3) and sim == pytest.approx(dv_sim, rel=1e-12)
     assert diff == pytest.approx(dv_sim - dv_test, abs=1e-3)
     assert target.metrics["peak_acceleration"][2] == pytest.approx(0.0, abs=1e-4)   # same loading branch (of 105)
     assert target.metrics["pulse_duration"][2] == pytest.approx(pulse_sim - pulse_test, abs=2.5 / RATE)
     for rating in c.iso18571.values():
         assert 0 < rating.total < 1 and rating.magnitude < 1 and rating.corridor < 1
+
+
+def test_measured_metrics_do_not_depend_on_the_simulation(scene, result):
+    """The interval runs to the end of the record, not to the end of the simulated crash: a shorter
+    simulated pulse leaves the measured ΔV and pulse as they are."""
+    test = channels_of(result)
+    shorter = lsc.solve(scene.with_values({"contacts.0.unloading.restitution": 0.1}))
+    for v, w in zip(compare(result, test).vehicles, compare(shorter, test).vehicles):
+        assert v.metrics["delta_v"][0] == w.metrics["delta_v"][0]
+        assert v.metrics["pulse_duration"][0] == w.metrics["pulse_duration"][0]
+
+
+def test_braked_scene_ends_the_interval_at_the_simulation_end(scene):
+    braked = lsc.solve(scene.with_values({"vehicles.1.brake": {"mu": 0.7, "mu_static": 0.8}}))
+    c = compare(braked, channels_of(braked, t_end=braked.t[-1] + 0.05))
+    assert c.vehicles[0].t[-1] <= braked.t[-1] and c.iso18571["accel_target"].total == 1
+    assert c.notes and "the scene has braking" in c.notes[0]
 
 
 def test_mapping_window_and_errors(result):
@@ -77,7 +95,7 @@ def test_mapping_window_and_errors(result):
         compare(result, swapped)
     assert str(e.value) == ("test: no channel matches a vehicle of the scene: name them accel_bullet, accel_target "
                             "(or velocity_<vehicle>) or pass mapping={role: channel}; the channels are: A2, A1")
-    with pytest.raises(lsc.SceneError, match=r"window: the window \(0, 0.5\) s must lie inside both records"):
+    with pytest.raises(lsc.SceneError, match=r"window: the window \(0, 0.5\) s must lie inside both records, which overlap over \(0, 0.15\) s"):
         compare(result, channels_of(result), window=(0, 0.5))
     short = compare(result, channels_of(result), window=(0, 0.05))
     assert short.vehicles[0].t[-1] == pytest.approx(0.05)

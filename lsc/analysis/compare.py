@@ -4,8 +4,11 @@
 ``velocity_<name>`` or an explicit mapping, see :meth:`~lsc.analysis.channels.Channels.match`)
 and, for each vehicle with a channel, puts measured and simulated acceleration and velocity
 change (ΔV since time zero: the measured one integrated from the acceleration unless a velocity
-channel is given) on the measured time base over the compared interval (time zero = first
-contact, to the end of the shorter record, or ``window``). It reports, per vehicle, the peak
+channel is given) on the measured time base over the compared interval: from time zero (first
+contact) to the end of the measured record, or ``window``. After the simulated crash has ended
+the vehicles of a scene without braking move uniformly (acceleration 0, velocity constant), so the
+simulation is continued so; with braking its motion after the result's last time is not known,
+and the interval ends there (``Comparison.notes`` says so). It reports, per vehicle, the peak
 acceleration, the ΔV at the end of the interval and the pulse duration (first to last sample with
 ``|a|`` at least ``pulse_threshold`` times its peak, the same rule for both), measured, simulated
 and their difference (simulated - measured), and the ISO/TS 18571 rating of each compared channel
@@ -53,6 +56,7 @@ class Comparison:
     iso18571: dict
     units: dict
     unit_system: str
+    notes: tuple = ()
 
     def rows(self) -> list[dict]:
         """One row per vehicle and metric: vehicle, metric, unit, measured, simulated, difference."""
@@ -128,7 +132,8 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
     """
     system = result.scene.units
     roles = channels.match(result.scene, mapping)
-    t0, t1 = _window(result, channels, window)
+    uniform_after = all(v.brake is None for v in result.scene.vehicles)
+    t0, t1 = _window(result, channels, window, uniform_after)
     inside = (channels.t >= t0 - 1e-9) & (channels.t <= t1 + 1e-9)
     t = channels.t[inside]
     vehicles, ratings = [], {}
@@ -136,8 +141,9 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
         acc, vel = roles.get(f"accel_{vehicle.name}"), roles.get(f"velocity_{vehicle.name}")
         if acc is None and vel is None:
             continue
-        v_sim = np.interp(t, result.t, result.v[:, i])
-        sim_a, sim_dv = np.interp(t, result.t, result.a[:, i]), v_sim - v_sim[0]
+        v_sim = np.interp(t, result.t, result.v[:, i])                 # constant after the end
+        sim_a = np.interp(t, result.t, result.a[:, i], right=0.0)      # uniform motion after the end
+        sim_dv = v_sim - v_sim[0]
         meas_a = acc.to(system)[inside] if acc is not None else np.gradient(vel.to(system)[inside], t)
         meas_dv = _delta_v(t, meas_a) if vel is None else vel.to(system)[inside] - vel.to(system)[inside][0]
         metrics = _metrics(t, meas_a, sim_a, meas_dv, sim_dv, pulse_threshold)
@@ -153,12 +159,16 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
                                           f"the channels are: {', '.join(channels.names)}")
     units = {"acceleration": result.units["a"], "delta_v": result.units["v"], "peak_acceleration": result.units["a"],
              "pulse_duration": "s"}
-    return Comparison(tuple(vehicles), ratings, units, system)
+    cut_short = window is None and not uniform_after and t1 < float(channels.t[-1]) - 1e-9
+    notes = () if not cut_short else (
+        f"the scene has braking: the simulation's motion after its last time {float(result.t[-1]):.6g} s is "
+        "not known, so the comparison ends there, before the end of the measured record",)
+    return Comparison(tuple(vehicles), ratings, units, system, notes)
 
 
-def _window(result, channels, window) -> tuple[float, float]:
+def _window(result, channels, window, uniform_after: bool) -> tuple[float, float]:
     lo = max(0.0, float(result.t[0]), float(channels.t[0]))
-    hi = min(float(result.t[-1]), float(channels.t[-1]))
+    hi = float(channels.t[-1]) if uniform_after else min(float(result.t[-1]), float(channels.t[-1]))
     if window is None:
         t0, t1 = lo, hi
     else:
