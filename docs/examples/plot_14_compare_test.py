@@ -1,6 +1,6 @@
 """
 A simulation beside a crash test: ISO-MME channels, metric differences, ISO/TS 18571
-===================================================================================
+====================================================================================
 
 The packaged data set ``synthetic_test`` is **synthetic**: the packaged default scene (two
 3500 lbf cars, 10 ft/s, 24,000 lbf/ft, e = 0.4) simulated, sampled at 10 kHz with a 20 ms

@@ -239,9 +239,11 @@ def read_channels(source, *, columns: dict | None = None, units: dict | None = N
     cfc : float, optional
         Filter every channel with the J211 CFC filter of this class (60, 180, 600, 1000).
 
-    Raises :class:`~lsc.SceneError` naming the file, line and column for a missing channel or
-    time column, a non-numeric or empty cell, an unknown unit, or a time base that is not one
-    constant sample rate.
+    Raises
+    ------
+    lsc.SceneError
+        Naming the file, line and column: a missing channel or time column, a non-numeric or
+        empty cell, an unknown unit, or a time base that is not one constant sample rate.
     """
     path = Path(source).expanduser()
     where = str(source)
