@@ -231,3 +231,24 @@ def test_channels_container_basics():
     assert isinstance(ch, Channels) and len(ch) == 4 and "force" in ch
     frame = ch.to_frame()
     assert list(frame.columns) == ["time [s]", "accel_bullet [g]", "accel_target [g]", "force [lbf]", "deformation [in]"]
+
+
+def test_excel_sheet(tmp_path):
+    """An Excel sheet reads like a CSV (rows for lines); without openpyxl the error names the remedy."""
+    path = tmp_path / "m.xlsx"
+    try:
+        import openpyxl  # noqa: F401
+    except ImportError:
+        with zipfile.ZipFile(path, "w") as z:          # what pandas takes for a workbook: openpyxl's
+            z.writestr("xl/workbook.xml", "<workbook/>")
+        with pytest.raises(lsc.SceneError, match=r"reading Excel files needs openpyxl .*save the sheet as CSV"):
+            read_channels(path)
+        return
+    import pandas as pd
+
+    pd.DataFrame({"time [ms]": [0, 1, 2, 3], "accel_target [g]": [0, 1, "x", 0]}).to_excel(path, index=False)
+    with pytest.raises(lsc.SceneError, match=r"row 4, column 2 \('accel_target \[g\]'\) is 'x', not a finite number"):
+        read_channels(path)
+    pd.DataFrame({"time [ms]": [0, 1, 2, 3], "accel_target [g]": [0, 1, 2, 0]}).to_excel(path, index=False)
+    ch = read_channels(path)
+    assert ch.dt == pytest.approx(1e-3) and np.allclose(ch["accel_target"].to("SI"), np.array([0, 1, 2, 0]) * G)
