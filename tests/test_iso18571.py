@@ -86,3 +86,25 @@ def test_bad_input_is_refused():
         iso18571(np.zeros(20), np.ones(20), dt=1e-4)
     with pytest.raises(ValueError, match="uniformly spaced"):
         iso18571(np.ones(20), np.ones(20), np.r_[np.arange(19), 30.0])
+
+
+def plain_dtw_cost(a, b, band):
+    """The least accumulated cost by the textbook O(n m) recursion (an independent solution)."""
+    cost = np.full((a.size, b.size), np.inf)
+    for i in range(a.size):
+        for j in range(b.size):
+            if abs(i - j) >= band:
+                continue
+            before = [cost[p] for p in ((i - 1, j), (i, j - 1), (i - 1, j - 1)) if min(p) >= 0]
+            cost[i, j] = (a[i] - b[j]) ** 2 + (min(before) if before else 0.0)
+    return cost[-1, -1]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_banded_dtw_path_has_the_least_cost(seed):
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=40), rng.normal(size=40)
+    i, j = dtw_path(a, b, band=7)
+    assert np.all(np.abs(i - j) < 7) and np.all(np.diff(i) >= 0) and np.all(np.diff(j) >= 0)
+    assert np.all(np.diff(i) + np.diff(j) >= 1) and (i[0], j[0], i[-1], j[-1]) == (0, 0, 39, 39)
+    assert np.sum((a[i] - b[j]) ** 2) == pytest.approx(plain_dtw_cost(a, b, 7), rel=1e-12)

@@ -157,26 +157,48 @@ def magnitude_score(ref: np.ndarray, cand: np.ndarray) -> float:
 def dtw_path(a: np.ndarray, b: np.ndarray, band: int) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs ``(i, j)`` of the least-cost warping path between ``a`` and ``b`` (cost
     ``(a_i - b_j)²``, steps (1,0), (0,1), (1,1) of weight 1, ``|i - j| < band``); on ties the
-    diagonal step is preferred."""
-    n, m = a.size, b.size
-    cost = np.full((n, m), np.inf)
-    for i in range(n):
-        lo, hi = max(0, i - band + 1), min(m, i + band)
-        row = (a[i] - b[lo:hi]) ** 2
-        if i == 0:
-            cost[0, lo:hi] = np.cumsum(row)
-            continue
-        prev = cost[i - 1]
-        up = prev[lo:hi]
-        diag = prev[lo - 1:hi - 1] if lo > 0 else np.concatenate(([np.inf], prev[:hi - 1]))
-        best = row + np.minimum(up, diag)
-        # along the row: cost[i, j] = min(best[j], row[j] + cost[i, j-1]) = S[j] + min_{k<=j}(best[k] - S[k])
-        csum = np.cumsum(row)
-        cost[i, lo:hi] = csum + np.minimum.accumulate(best - csum)
+    diagonal step is preferred. Memory: ``len(a) × (2 band - 1)`` accumulated costs."""
+    cost = _BandedCost(a.size, b.size, band)
+    prev = None
+    for i in range(a.size):
+        lo, hi = cost.lo[i], cost.hi[i]
+        step = (a[i] - b[lo:hi]) ** 2
+        if prev is None:
+            row = np.cumsum(step)
+        else:
+            best = step + np.minimum(cost.row_values(i - 1, lo, hi), cost.row_values(i - 1, lo - 1, hi - 1))
+            # along the row: C[j] = min(best[j], step[j] + C[j-1]) = S[j] + min_{k<=j}(best[k] - S[k])
+            csum = np.cumsum(step)
+            row = csum + np.minimum.accumulate(best - csum)
+        cost.rows.append(row)
+        prev = row
     return _backtrack(cost)
 
 
-def _backtrack(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+class _BandedCost:
+    """Accumulated DTW costs stored row by row inside the Sakoe–Chiba band (inf outside)."""
+
+    def __init__(self, n: int, m: int, band: int):
+        i = np.arange(n)
+        self.lo = np.maximum(0, i - band + 1)
+        self.hi = np.minimum(m, i + band)
+        self.shape = (n, m)
+        self.rows: list[np.ndarray] = []
+
+    def row_values(self, i: int, lo: int, hi: int) -> np.ndarray:
+        """Row ``i`` at columns ``lo .. hi-1`` (inf where outside the band or the matrix)."""
+        out = np.full(hi - lo, np.inf)
+        a, b = max(lo, self.lo[i]), min(hi, self.hi[i])
+        if b > a:
+            out[a - lo:b - lo] = self.rows[i][a - self.lo[i]:b - self.lo[i]]
+        return out
+
+    def __getitem__(self, ij) -> float:
+        i, j = ij
+        return self.rows[i][j - self.lo[i]] if self.lo[i] <= j < self.hi[i] else np.inf
+
+
+def _backtrack(cost: _BandedCost) -> tuple[np.ndarray, np.ndarray]:
     i, j = cost.shape[0] - 1, cost.shape[1] - 1
     path = [(i, j)]
     while i > 0 or j > 0:
