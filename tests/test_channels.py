@@ -217,6 +217,11 @@ def test_isomme_malformed_channel_files(tmp_path):
     unit = hand_set(tmp_path, [("10VEHC0000ACXP", "a", "furlong/s/s/s", 0.001, 0.0, [0, 1, 2, 1])], "unit")
     with pytest.raises(lsc.SceneError, match=r"HAND.001, line 4: unknown or unsupported unit \"furlong/s/s/s\""):
         read_channels(unit)
+    explicit = hand_set(tmp_path, [("10VEHC0000ACXP", "a", "g", 0.001, 0.0, [0, 1, 2, 1])], "explicit")
+    file = explicit / "Channel" / "HAND.001"
+    file.write_text(file.read_text().replace(":implicit", ":explicit"))
+    with pytest.raises(lsc.SceneError, match=r"HAND.001: line 3: channel 10VEHC0000ACXP is timed by an explicit"):
+        read_channels(explicit)
     missing = hand_set(tmp_path, [("10VEHC0000ACXP", "a", "g", 0.001, 0.0, [0, 1, 2, 1])], "missing")
     (missing / "Channel" / "HAND.001").unlink()
     with pytest.raises(lsc.SceneError, match=r"HAND.chn: channel 001 is listed but its file Channel/HAND.001 is missing"):

@@ -495,6 +495,11 @@ def _read_isomme_channel(archive: _Archive, name: str):
     lines = archive.read(name)
     fields, start = _header(lines)
     code, _ = _field(fields, "Channel code", where)
+    reference = fields.get("Reference channel", ("implicit", 0))
+    if reference[0].lower() == "explicit":
+        raise SceneError(where, f"line {reference[1]}: channel {code} is timed by an explicit time channel, "
+                                "which lsc does not read; give it 'Sampling interval' and 'Time of first sample' "
+                                "(Reference channel :implicit)")
     unit, unit_line = _field(fields, "Unit", where)
     dt, dt_line = _field(fields, "Sampling interval", where, number=True)
     t0, _ = _field(fields, "Time of first sample", where, number=True)
