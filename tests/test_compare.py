@@ -87,6 +87,30 @@ def test_braked_scene_ends_the_interval_at_the_simulation_end(scene):
     assert c.notes and "the scene has braking" in c.notes[0]
 
 
+def test_time_zero_is_first_contact_in_a_scene_with_a_gap():
+    """With a gap the simulation starts before contact: its first contact is aligned with the
+    test's time zero."""
+    gap = lsc.solve({"units": "SI", "vehicles": [{"name": "bullet", "mass": 1000, "speed": 3},
+                                                 {"name": "target", "mass": 1200, "speed": 0}],
+                     "contacts": [{"loading": {"stiffness": 1e5}, "unloading": {"restitution": 0.5}, "gap": 0.3}]})
+    touch = next(e.time for e in gap.events if e.kind == "contact")
+    assert touch == pytest.approx(0.1)
+    t = np.arange(-100, 2001) / RATE
+    chans = {n: Channel(n, np.interp(t + touch, gap.t, gap.a[:, i], right=0.0), "m/s^2", "acceleration")
+             for i, n in enumerate(("accel_bullet", "accel_target"))}
+    c = compare(gap, Channels(t, chans, "gap test"))
+    assert all(r.total == pytest.approx(1, abs=1e-12) and r.shift == 0 for r in c.iso18571.values())
+    assert c.vehicles[1].metrics["delta_v"][1] == pytest.approx(1.5 * 1000 * 3 / 2200, rel=1e-12)
+
+
+def test_velocity_channel_is_rated_as_delta_v(result):
+    t = np.arange(0, 1501) / RATE
+    chans = {"velocity_target": Channel("velocity_target", np.interp(t, result.t, result.v[:, 1]), "ft/s", "velocity")}
+    c = compare(result, Channels(t, chans, "v test"))
+    assert list(c.iso18571) == ["velocity_target"] and c.iso18571["velocity_target"].total == 1
+    assert c.vehicles[0].metrics["delta_v"][2] == pytest.approx(0.0, abs=1e-12)
+
+
 def test_mapping_window_and_errors(result):
     swapped = channels_of(result, names=("A2", "A1"))          # A1 is the target's, under another name
     c = compare(result, swapped, mapping={"accel_target": "A1"})

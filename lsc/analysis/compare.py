@@ -5,7 +5,8 @@
 and, for each vehicle with a channel, puts measured and simulated acceleration and velocity
 change (ΔV since time zero: the measured one integrated from the acceleration unless a velocity
 channel is given) on the measured time base over the compared interval: from time zero (first
-contact) to the end of the measured record, or ``window``. After the simulated crash has ended
+contact in the test; the simulation's first ``contact`` event, or its start, in the result) to the
+end of the measured record, or ``window``. After the simulated crash has ended
 the vehicles of a scene without braking move uniformly (acceleration 0, velocity constant), so the
 simulation is continued so; with braking its motion after the result's last time is not known,
 and the interval ends there (``Comparison.notes`` says so). It reports, per vehicle, the peak
@@ -133,7 +134,8 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
     system = result.scene.units
     roles = channels.match(result.scene, mapping)
     uniform_after = all(v.brake is None for v in result.scene.vehicles)
-    t0, t1 = _window(result, channels, window, uniform_after)
+    t_sim = result.t - _first_contact(result)
+    t0, t1 = _window(t_sim, channels, window, uniform_after)
     inside = (channels.t >= t0 - 1e-9) & (channels.t <= t1 + 1e-9)
     t = channels.t[inside]
     vehicles, ratings = [], {}
@@ -141,8 +143,8 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
         acc, vel = roles.get(f"accel_{vehicle.name}"), roles.get(f"velocity_{vehicle.name}")
         if acc is None and vel is None:
             continue
-        v_sim = np.interp(t, result.t, result.v[:, i])                 # constant after the end
-        sim_a = np.interp(t, result.t, result.a[:, i], right=0.0)      # uniform motion after the end
+        v_sim = np.interp(t, t_sim, result.v[:, i])                    # constant after the end
+        sim_a = np.interp(t, t_sim, result.a[:, i], right=0.0)         # uniform motion after the end
         sim_dv = v_sim - v_sim[0]
         meas_a = acc.to(system)[inside] if acc is not None else np.gradient(vel.to(system)[inside], t)
         meas_dv = _delta_v(t, meas_a) if vel is None else vel.to(system)[inside] - vel.to(system)[inside][0]
@@ -161,14 +163,19 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
              "pulse_duration": "s"}
     cut_short = window is None and not uniform_after and t1 < float(channels.t[-1]) - 1e-9
     notes = () if not cut_short else (
-        f"the scene has braking: the simulation's motion after its last time {float(result.t[-1]):.6g} s is "
+        f"the scene has braking: the simulation's motion after its last time {float(t_sim[-1]):.6g} s is "
         "not known, so the comparison ends there, before the end of the measured record",)
     return Comparison(tuple(vehicles), ratings, units, system, notes)
 
 
-def _window(result, channels, window, uniform_after: bool) -> tuple[float, float]:
-    lo = max(0.0, float(result.t[0]), float(channels.t[0]))
-    hi = float(channels.t[-1]) if uniform_after else min(float(result.t[-1]), float(channels.t[-1]))
+def _first_contact(result) -> float:
+    """Time [s] of the result's first contact: its first ``contact`` event, else its start."""
+    return min((float(e.time) for e in result.events if e.kind == "contact"), default=float(result.t[0]))
+
+
+def _window(t_sim, channels, window, uniform_after: bool) -> tuple[float, float]:
+    lo = max(0.0, float(channels.t[0]))
+    hi = float(channels.t[-1]) if uniform_after else min(float(t_sim[-1]), float(channels.t[-1]))
     if window is None:
         t0, t1 = lo, hi
     else:
