@@ -135,6 +135,16 @@ def test_non_numeric_and_empty_cells(tmp_path):
         read_channels(empty)
 
 
+def test_duplicate_names_refused_and_empty_trailing_column_skipped(tmp_path):
+    twice = write(tmp_path, "n.csv", "time [s],accel [g],accel [m/s^2]\n0,1,1\n0.001,2,2\n0.002,3,3\n")
+    with pytest.raises(lsc.SceneError) as e:
+        read_channels(twice)
+    assert str(e.value) == (f"{twice}: line 1: columns 2 and 3 are both named 'accel'; rename one, or pick "
+                            "columns with columns={name: column}")
+    trailing = write(tmp_path, "o.csv", "time [s],accel_target [g],\n0,1,\n0.001,2,\n0.002,3,\n")
+    assert read_channels(trailing).names == ("accel_target",)
+
+
 def test_unknown_or_missing_unit(tmp_path):
     path = write(tmp_path, "i.csv", "time [s],accel_target [bananas]\n0,1\n0.001,2\n0.002,3\n")
     with pytest.raises(lsc.SceneError) as e:

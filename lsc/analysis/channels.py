@@ -343,7 +343,7 @@ def _table_channels(table, where, columns, units, time, excel=False):
                                     "or pass time=<header or index>")
     else:
         t_col = locate(time, "time")
-    wanted = columns if columns is not None else {n: i for i, n in enumerate(names) if i != t_col}
+    wanted = columns if columns is not None else _header_channels(names, t_col, where, f"{line} {head_no}")
     picked = {name: locate(spec, f"channel {name!r}") for name, spec in wanted.items()}
     units = dict(units or {})
     unit_of = {}
@@ -362,6 +362,20 @@ def _table_channels(table, where, columns, units, time, excel=False):
         kind = _kind_of(unit, f"{where}, {line} {head_no}, column {col + 1} ({header[col]!r})")
         chans[name] = Channel(name, data[:, j], unit, kind, f"{where}, column {col + 1}")
     return t, chans
+
+
+def _header_channels(names, t_col, where, at) -> dict[str, int]:
+    """``{name: column}`` of every named column but time (a column with an empty header, such as
+    a trailing delimiter leaves, is skipped); SceneError if two columns share a name."""
+    out = {}
+    for i, name in enumerate(names):
+        if i == t_col or not name:
+            continue
+        if name in out:
+            raise SceneError(where, f"{at}: columns {out[name] + 1} and {i + 1} are both named {name!r}; "
+                                    "rename one, or pick columns with columns={name: column}")
+        out[name] = i
+    return out
 
 
 def _numbers(rows, cols, header, where, line) -> np.ndarray:
