@@ -121,6 +121,8 @@ def test_mapping_window_and_errors(result):
                             "(or velocity_<vehicle>) or pass mapping={role: channel}; the channels are: A2, A1")
     with pytest.raises(lsc.SceneError, match=r"window: the window \(0, 0.5\) s must lie inside both records, which overlap over \(0, 0.15\) s"):
         compare(result, channels_of(result), window=(0, 0.5))
+    with pytest.raises(lsc.SceneError, match=r"pulse_threshold: a fraction of the peak in \(0, 1\), got 5"):
+        compare(result, channels_of(result), pulse_threshold=5)
     short = compare(result, channels_of(result), window=(0, 0.05))
     assert short.vehicles[0].t[-1] == pytest.approx(0.05)
 

@@ -126,46 +126,62 @@ def compare(result, channels, *, mapping: dict | None = None, window=None,
     """Compare a :class:`~lsc.Result` with measured :class:`~lsc.analysis.channels.Channels`.
 
     ``mapping``: ``{role: channel name}`` (roles ``accel_<vehicle>``, ``velocity_<vehicle>``);
-    ``window``: ``(t_start, t_end)`` [s] inside both records (default: time zero to the end of
-    the shorter one); ``pulse_threshold``: fraction of the peak that bounds the pulse.
+    ``window``: ``(t_start, t_end)`` [s] inside the record (default: time zero to the end of the
+    record; for a scene with braking, to the end of the simulation if that comes first);
+    ``pulse_threshold``: fraction of the peak acceleration that bounds the pulse, in (0, 1).
     Raises :class:`~lsc.SceneError` when no channel matches a vehicle or the window is outside
     the records.
     """
-    system = result.scene.units
+    if not 0 < pulse_threshold < 1:
+        raise SceneError("pulse_threshold", f"a fraction of the peak in (0, 1), got {pulse_threshold!r}")
     roles = channels.match(result.scene, mapping)
     uniform_after = all(v.brake is None for v in result.scene.vehicles)
     t_sim = result.t - _first_contact(result)
     t0, t1 = _window(t_sim, channels, window, uniform_after)
     inside = (channels.t >= t0 - 1e-9) & (channels.t <= t1 + 1e-9)
-    t = channels.t[inside]
     vehicles, ratings = [], {}
     for i, vehicle in enumerate(result.scene.vehicles):
         acc, vel = roles.get(f"accel_{vehicle.name}"), roles.get(f"velocity_{vehicle.name}")
         if acc is None and vel is None:
             continue
-        v_sim = np.interp(t, t_sim, result.v[:, i])                    # constant after the end
-        sim_a = np.interp(t, t_sim, result.a[:, i], right=0.0)         # uniform motion after the end
-        sim_dv = v_sim - v_sim[0]
-        meas_a = acc.to(system)[inside] if acc is not None else np.gradient(vel.to(system)[inside], t)
-        meas_dv = _delta_v(t, meas_a) if vel is None else vel.to(system)[inside] - vel.to(system)[inside][0]
-        metrics = _metrics(t, meas_a, sim_a, meas_dv, sim_dv, pulse_threshold)
-        vehicles.append(VehicleComparison(vehicle.name, t, meas_a, sim_a, meas_dv, sim_dv, metrics))
+        simulated = (t_sim, result.v[:, i], result.a[:, i])
+        vc = _compare_vehicle(vehicle.name, channels.t[inside], inside, simulated, acc, vel,
+                              result.scene.units, pulse_threshold)
+        vehicles.append(vc)
         if acc is not None:
-            ratings[f"accel_{vehicle.name}"] = _rate(t, meas_a, sim_a)
+            ratings[f"accel_{vehicle.name}"] = _rate(vc.t, vc.measured_acceleration, vc.simulated_acceleration)
         if vel is not None:
-            ratings[f"velocity_{vehicle.name}"] = _rate(t, meas_dv, sim_dv)
+            ratings[f"velocity_{vehicle.name}"] = _rate(vc.t, vc.measured_delta_v, vc.simulated_delta_v)
     if not vehicles:
         wanted = ", ".join(f"accel_{v.name}" for v in result.scene.vehicles)
         raise SceneError(channels.source, f"no channel matches a vehicle of the scene: name them {wanted} "
                                           f"(or velocity_<vehicle>) or pass mapping={{role: channel}}; "
                                           f"the channels are: {', '.join(channels.names)}")
-    units = {"acceleration": result.units["a"], "delta_v": result.units["v"], "peak_acceleration": result.units["a"],
-             "pulse_duration": "s"}
     cut_short = window is None and not uniform_after and t1 < float(channels.t[-1]) - 1e-9
     notes = () if not cut_short else (
         f"the scene has braking: the simulation's motion after its last time {float(t_sim[-1]):.6g} s is "
         "not known, so the comparison ends there, before the end of the measured record",)
-    return Comparison(tuple(vehicles), ratings, units, system, notes)
+    units = {"acceleration": result.units["a"], "delta_v": result.units["v"], "peak_acceleration": result.units["a"],
+             "pulse_duration": "s"}
+    return Comparison(tuple(vehicles), ratings, units, result.scene.units, notes)
+
+
+def _compare_vehicle(name, t, inside, simulated, acc, vel, system, threshold) -> VehicleComparison:
+    """One vehicle's measured and simulated pulses on ``t`` (the record's samples ``inside`` the
+    interval); ``simulated`` = (time from first contact, velocity, acceleration)."""
+    t_sim, v, a = simulated
+    v_sim = np.interp(t, t_sim, v)                    # constant after the end
+    sim_a = np.interp(t, t_sim, a, right=0.0)         # uniform motion after the end
+    sim_dv = v_sim - v_sim[0]
+    if vel is None:
+        meas_a = acc.to(system)[inside]
+        meas_dv = _delta_v(t, meas_a)
+    else:
+        meas_v = vel.to(system)[inside]
+        meas_dv = meas_v - meas_v[0]
+        meas_a = acc.to(system)[inside] if acc is not None else np.gradient(meas_v, t)
+    metrics = _metrics(t, meas_a, sim_a, meas_dv, sim_dv, threshold)
+    return VehicleComparison(name, t, meas_a, sim_a, meas_dv, sim_dv, metrics)
 
 
 def _first_contact(result) -> float:
