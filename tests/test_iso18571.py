@@ -108,3 +108,14 @@ def test_banded_dtw_path_has_the_least_cost(seed):
     assert np.all(np.abs(i - j) < 7) and np.all(np.diff(i) >= 0) and np.all(np.diff(j) >= 0)
     assert np.all(np.diff(i) + np.diff(j) >= 1) and (i[0], j[0], i[-1], j[-1]) == (0, 0, 39, 39)
     assert np.sum((a[i] - b[j]) ** 2) == pytest.approx(plain_dtw_cost(a, b, 7), rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_scores_lie_in_zero_one_and_total_is_their_weighted_sum(seed):
+    rng = np.random.default_rng(seed)
+    ref = half_sine(T) + 0.1 * rng.normal(size=T.size)
+    cand = rng.uniform(0.3, 2.0) * np.roll(ref, rng.integers(-150, 150)) + rng.normal(0, 0.3, T.size)
+    r = iso18571(ref, cand, T)
+    parts = np.array([r.corridor, r.phase, r.magnitude, r.slope])
+    assert np.all((0 <= parts) & (parts <= 1))
+    assert r.total == pytest.approx(np.dot([0.4, 0.2, 0.2, 0.2], parts), abs=1e-15)
