@@ -11,14 +11,20 @@
   with respect to masses, speeds, stiffness and restitution, by forward-mode autodiff through the
   diffrax solve (events included) or by finite differences;
 - :func:`read_measured`, :func:`measured_curve`, :func:`series_measured`: measured force–deflection
-  data as loading curves; :func:`cfc_filter`: the SAE J211 / ISO 6487 CFC filter.
+  data as loading curves; :func:`cfc_filter`: the SAE J211 / ISO 6487 CFC filter;
+- :func:`read_channels`: crash-test channels from CSV/TSV/Excel tables or ISO-MME data sets;
+  :func:`iso18571`: the ISO/TS 18571 objective rating of two time histories; :func:`compare`: a
+  simulation beside its test (pulses, metric differences, ratings).
 """
 
 from .bounds import Bound, max_closing_speed, peak_force
 from .calibration import Calibration, calibrate_force_scale, energy_force_scale
+from .channels import Channel, Channels, read_channels
+from .compare import Comparison, compare
 from .filters import CFC_CLASSES, cfc_coefficients, cfc_filter, cfc_response, j211_corridor
 from .measured import (curve_table, envelope, measured_curve, read_columns, read_measured,
                        series_measured)
+from .iso18571 import ISO18571Rating, iso18571
 from .mer import MER, format_mer, mer, mer_for
 from .sensitivity import Sensitivity, default_params, sensitivity
 from .uncertainty import MonteCarlo, monte_carlo, sample
@@ -31,4 +37,5 @@ __all__ = [
     "sensitivity", "Sensitivity", "default_params",
     "read_measured", "read_columns", "measured_curve", "series_measured", "curve_table", "envelope",
     "cfc_filter", "cfc_coefficients", "cfc_response", "j211_corridor", "CFC_CLASSES",
+    "read_channels", "Channels", "Channel", "iso18571", "ISO18571Rating", "compare", "Comparison",
 ]
