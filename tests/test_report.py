@@ -344,3 +344,25 @@ def test_the_report_screenshot(page, tmp_path):
     from matplotlib.image import imread
     pixels = imread(shot)
     assert pixels.shape[:2] == (3000, 1200) and np.ptp(pixels[..., :3]) > 0
+
+
+def test_csv_files_the_scene_reads_are_hashed(tmp_path):
+    (tmp_path / "edge.csv").write_text("deformation,force\n0,0\n3,2000\n12,30000\n",
+                                       encoding="utf-8")
+    scene = tmp_path / "crash.toml"
+    scene.write_text('units = "US"\n[[vehicles]]\nweight = 3500\nspeed = 8\n[[vehicles]]\n'
+                     'weight = 3000\nspeed = 0\n[[contacts]]\nloading = { csv = "edge.csv", '
+                     'deformation = "in", force = "lbf" }\nunloading = { restitution = 0.3 }\n',
+                     encoding="utf-8")
+    html = render_report(scene)
+    digest = hashlib.sha256((tmp_path / "edge.csv").read_bytes()).hexdigest()
+    assert "contacts[0].loading.csv" in html and digest in html
+
+
+def test_mer_not_applicable_to_a_chain():
+    chain = {"vehicles": [{"mass": 1500, "speed": 4}, {"mass": 1200, "speed": 0},
+                          {"mass": 1300, "speed": 0}],
+             "contacts": [{"loading": {"stiffness": 4e5}, "unloading": {"restitution": 0.4}}] * 2}
+    html = render_report(chain)
+    section = html.split('id="mer"')[1].split("</section>")[0]
+    assert "Not applicable" in section and "the scene has 3" in section
