@@ -290,7 +290,8 @@ def _scene_section(scene: Scene, file: Path | None, file_text: str | None) -> st
 
 
 def _method_section(result) -> str:
-    tol = ", ".join(f"{escape(str(k))} = {escape(str(v))}" for k, v in result.tolerances.items())
+    tol = ", ".join(f"{escape(str(k))} = {'default' if v is None else escape(str(v))}"
+                    for k, v in result.tolerances.items())
     stats = ", ".join(f"{escape(str(k))} {escape(_num(v) if isinstance(v, float) else str(v))}"
                       for k, v in result.stats.items() if k != "warnings")
     return _section(
@@ -355,11 +356,12 @@ def _impacts_section(result) -> str:
             return "g"
         return result.scene.unit(kind) if kind else result.units.get(name, "")
 
-    header = [escape(n) + (f"<br><small>{escape(unit(n))}</small>" if unit(n) else "")
-              for n in fields]
-    rows = [[_cell(getattr(m, n)) for n in fields] for m in impacts]
-    return _section("Impacts", _table("each touch → separation episode (pairs: rear, front)",
-                                      header, rows), anchor="impacts")
+    rows = [[escape(n) + (f" <small>[{escape(unit(n))}]</small>" if unit(n) else "")]
+            + [_cell(getattr(m, n)) for m in impacts] for n in fields]
+    header = ["field"] + [f"impact {j}" for j in range(1, len(impacts) + 1)]
+    return _section("Impacts", '<div class="wide">'
+                    + _table("each touch → separation episode, one per column (pairs: rear, "
+                             "front vehicle)", header, rows) + "</div>", anchor="impacts")
 
 
 def _mer_section(result) -> str:
@@ -468,7 +470,7 @@ ul.warn li{color:#8a1f11;font-weight:bold}
 table{border-collapse:collapse;font-size:0.9em}
 th,td{border-bottom:1px solid #ddd;padding:0.15em 0.7em;vertical-align:bottom}
 caption{text-align:left;font-weight:bold}
-.lsc-html{overflow-x:auto}
+.lsc-html,.wide{overflow-x:auto}.wide td{text-align:right}.wide td:first-child{text-align:left}
 @media print{section{break-inside:avoid-page}}
 """
 

@@ -31,6 +31,10 @@ from lsc.outputs import OutputExistsError
 from lsc.report import render_report, scene_hash, to_toml, write_report
 from lsc.result import METRICS
 
+#: Three vehicles in a row (SI).
+CHAIN = {"vehicles": [{"mass": 1500, "speed": 4}, {"mass": 1200, "speed": 0},
+                      {"mass": 1300, "speed": 0}],
+         "contacts": [{"loading": {"stiffness": 4e5}, "unloading": {"restitution": 0.4}}] * 2}
 DOCS_EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"
 MC_N = 40
 
@@ -219,7 +223,7 @@ class _Episode:
 
 
 def test_impacts_table_from_the_dataclass_fields():
-    r = copy.copy(lsc.solve(data.load("default")))
+    r = copy.copy(lsc.solve(CHAIN))  # three vehicles: no MER, which would read the impacts
     r.impacts = (_Episode(0, 0.0, (-7.0, 7.0), True, None),
                  _Episode(0, 0.25, (-0.125, 0.5), False, 0.4))
     html = render_report(r)
@@ -228,11 +232,15 @@ def test_impacts_table_from_the_dataclass_fields():
         assert f">{f.name}" in section
     assert "-7, 7" in section and "-0.125, 0.5" in section and "0.25" in section
     assert "yes" in section and "no" in section and "—" in section
-    assert "<small>s</small>" in section  # t_start is a time
+    assert "t_start <small>[s]</small>" in section  # a time
 
 
-def test_no_impacts_section_without_impacts():
-    r = copy.copy(lsc.solve(data.load("default")))
+def test_impacts_section_exactly_when_the_result_has_impacts():
+    r = lsc.solve(data.load("default"))
+    impacts = getattr(r, "impacts", None)  # Result.impacts, where it exists
+    html = render_report(r)
+    assert ('id="impacts"' in html) == bool(impacts)
+    r = copy.copy(lsc.solve(CHAIN))
     r.impacts = ()
     assert 'id="impacts"' not in render_report(r)
 
@@ -360,9 +368,6 @@ def test_csv_files_the_scene_reads_are_hashed(tmp_path):
 
 
 def test_mer_not_applicable_to_a_chain():
-    chain = {"vehicles": [{"mass": 1500, "speed": 4}, {"mass": 1200, "speed": 0},
-                          {"mass": 1300, "speed": 0}],
-             "contacts": [{"loading": {"stiffness": 4e5}, "unloading": {"restitution": 0.4}}] * 2}
-    html = render_report(chain)
+    html = render_report(CHAIN)
     section = html.split('id="mer"')[1].split("</section>")[0]
     assert "Not applicable" in section and "the scene has 3" in section
