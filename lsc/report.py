@@ -39,7 +39,8 @@ __all__ = ["render_report", "write_report", "scene_hash", "canonical_scene", "ac
 #: What :func:`scene_hash` hashes, in words (printed in the report).
 CANONICAL_FORM = ("the scene as loaded (its TOML table or dict, before units are applied) "
                   "serialised as JSON: keys sorted, no spaces (separators \",\" and \":\"), "
-                  "non-ASCII characters kept, encoded as UTF-8")
+                  "non-ASCII characters kept, encoded as UTF-8 (a Python function in the "
+                  "uncertainty table as its \"module:name\")")
 
 #: Monte Carlo samples and seed of the uncertainty section (defaults of :func:`render_report`).
 MC_SAMPLES = 1000
@@ -61,7 +62,17 @@ def canonical_scene(scene) -> bytes:
         raise SceneError("", "this scene has no source (build it with lsc.Scene.load): it cannot "
                              "be reported as given")
     return json.dumps(sc.source, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
-                      default=str).encode("utf-8")
+                      default=_json_default).encode("utf-8")
+
+
+def _json_default(value) -> str:
+    """A value JSON has no type for, as text that is the same in every run: a date or time as
+    ISO 8601, a Python function (an ``[uncertainty]`` spec) as ``"module:name"``."""
+    if isinstance(value, (datetime.date, datetime.time)):
+        return value.isoformat()
+    if callable(value):
+        return f"{getattr(value, '__module__', '?')}:{getattr(value, '__qualname__', '?')}"
+    return str(value)
 
 
 def scene_hash(scene) -> str:
@@ -116,7 +127,7 @@ def _toml_value(value) -> str:
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, (datetime.date, datetime.time)):
         return value.isoformat()
-    return json.dumps(str(value), ensure_ascii=False)
+    return json.dumps(_json_default(value), ensure_ascii=False)
 
 
 def to_toml(source: dict) -> str:

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 import lsc
+import lsc.report
 from lsc import data
 from lsc.analysis import max_closing_speed, monte_carlo
 from lsc.cli import main
@@ -371,3 +372,28 @@ def test_mer_not_applicable_to_a_chain():
     html = render_report(CHAIN)
     section = html.split('id="mer"')[1].split("</section>")[0]
     assert "Not applicable" in section and "the scene has 3" in section
+
+
+def _restitution_of_speed(samples):
+    return 0.6 - 0.02 * samples["vehicles.0.speed"]
+
+
+def test_a_function_in_the_uncertainty_table_hashes_by_its_name():
+    src = {**_scene_source(), "uncertainty": {
+        "vehicles.0.speed": {"uniform": [4, 6]},
+        "contacts.0.unloading.restitution": {"function": _restitution_of_speed}}}
+    name = f"{__name__}:_restitution_of_speed"
+    assert name.encode() in lsc.report.canonical_scene(src)
+    assert scene_hash(src) == scene_hash(copy.deepcopy(src))
+    html = render_report(src, mc_samples=10)
+    assert name in html and "10 samples drawn with seed 0" in html
+
+
+def test_versions_name_jax_and_diffrax_for_a_diffrax_solve():
+    try:
+        expected = {n: metadata.version(n) for n in ("jax", "diffrax")}
+    except metadata.PackageNotFoundError:
+        pytest.skip("JAX or diffrax not installed (the [jax] extra)")
+    v = lsc.report.versions("diffrax-Dopri8")
+    assert {n: v[n] for n in expected} == expected
+    assert v["lsc"] == lsc.__version__ and v["numpy"] == np.__version__
