@@ -197,9 +197,9 @@ def accuracy_statement(result) -> str:
         return (f"To the tolerance asked for: {what} with the {opts.get('integrator', '')} "
                 f"integrator, rtol = {_num(tol.get('rtol', float('nan')))}, atol = "
                 f"{'rtol × the scene’s scales (default)' if atol is None else _num(atol)}; "
-                "every event (mode switch) is located on the integrator's dense output, so the "
-                "results carry the integration error of that tolerance (about rtol relative), "
-                "not more.")
+                "the numbers are as accurate as that tolerance (about rtol relative), and every "
+                "event (mode switch) is located on the integrator's dense output to the same "
+                "accuracy. Quote them only to the digits that rtol supports.")
     if method == "reference":
         dt = tol.get("dt", float("nan"))
         return (f"First order in the time step: the paper's fixed-step algorithm (Eqs. 1–8) with "
@@ -265,7 +265,7 @@ def _pre(text: str) -> str:
     return f"<pre>{escape(text)}</pre>"
 
 
-def _scene_section(scene: Scene, file: Path | None, file_text: str | None) -> str:
+def _scene_section(scene: Scene, file: Path | None, raw: bytes | None) -> str:
     u = scene.units
     parts = [f"<p>Name: <b>{escape(scene.name)}</b>. Unit system: <b>{escape(u)}</b> (a bare "
              f"number is in {escape(', '.join(scene.unit(k) for k in ('length', 'time', 'mass', 'force')))}"
@@ -275,9 +275,10 @@ def _scene_section(scene: Scene, file: Path | None, file_text: str | None) -> st
              f"<small>hashed: {escape(CANONICAL_FORM)}; reproduce it with "
              "<code>lsc.report.scene_hash(scene)</code>.</small></p>"]
     if file is not None:
+        text = raw.decode("utf-8-sig", errors="replace")
         parts.append(f"<p>Read from the file <code>{escape(str(file))}</code>, SHA-256 of its "
                      f"bytes (as <code>sha256sum</code> prints it): <code class=\"hash\">"
-                     f"{_file_sha256(file)}</code>. Its text:</p>{_pre(file_text or '')}")
+                     f"{hashlib.sha256(raw).hexdigest()}</code>. Its text:</p>{_pre(text)}")
     csvs = _csv_files(scene)
     if csvs:
         rows = [[escape(where), f"<code>{escape(str(f))}</code>",
@@ -487,7 +488,7 @@ caption{text-align:left;font-weight:bold}
 
 
 def _solve(scene_or_result, solve_options: dict):
-    """``(result, file, text)``: the result, and the scene file (and its text) if one was given."""
+    """``(result, file, raw)``: the result, and the scene file (and its bytes) if one was given."""
     from .api import solve
     from .result import Result
     if isinstance(scene_or_result, Result):
@@ -495,14 +496,14 @@ def _solve(scene_or_result, solve_options: dict):
             raise SceneError(next(iter(solve_options)), "a Result is solved already: solver "
                              "options apply to a scene, not to a Result")
         return scene_or_result, None, None
-    file = text = None
+    file = raw = None
     if isinstance(scene_or_result, (str, os.PathLike)):
         file = Path(scene_or_result).expanduser()
         scene = Scene.load(file)  # says what is wrong with it
-        text = file.read_text(encoding="utf-8-sig")
+        raw = file.read_bytes()
     else:
         scene = Scene.load(scene_or_result)
-    return solve(scene, **solve_options), file, text
+    return solve(scene, **solve_options), file, raw
 
 
 def render_report(scene_or_result, *, mc_samples: int = MC_SAMPLES, seed=MC_SEED,
@@ -520,10 +521,10 @@ def render_report(scene_or_result, *, mc_samples: int = MC_SAMPLES, seed=MC_SEED
         ``method``, ``rtol``, ``dt``, ... as for :func:`lsc.solve` (a scene only). The
         uncertainty and bound sections solve with the same backend and options as the result.
     """
-    result, file, text = _solve(scene_or_result, solve_options)
+    result, file, raw = _solve(scene_or_result, solve_options)
     method, opts = _backend(result)
     notes: list[str] = []
-    body = [_scene_section(result.scene, file, text), _method_section(result),
+    body = [_scene_section(result.scene, file, raw), _method_section(result),
             _section("Summary", result_html(result), anchor="summary"),
             _impacts_section(result), _mer_section(result),
             _section("Figures", *(f"<figure>{img}<figcaption>{escape(cap)}</figcaption></figure>"
