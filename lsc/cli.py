@@ -4,9 +4,11 @@
             [--no-plots]
     lsc sweep [SCENE] --param PATH=VALUES [--param ...] [--grid] [--metric M] [--out DIR]
     lsc scenes
+    lsc report [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--n N]
+               [--seed S] [--out FILE]
 
 ``SCENE`` is a TOML file or the name of a packaged scene (``lsc scenes`` lists them); without it
-``lsc run`` runs the packaged default. Exit status: 0 done, 1 the physics could not be completed
+``lsc run`` (and ``lsc report``) runs the packaged default. Exit status: 0 done, 1 the physics could not be completed
 (:class:`lsc.SimulationError`), the output could not be written, or the reader of the output
 went away (``lsc run | head``: stdout is a closed pipe, nothing more is printed and no traceback),
 2 bad input (:class:`lsc.SceneError` or bad arguments, or output files of an earlier run in the
@@ -46,15 +48,21 @@ def resolve_scene(text: str | None):
     """The :class:`lsc.Scene` named on the command line: a TOML path, or a packaged scene name
     (``None`` → the packaged default). A name with a folder separator or a ``.toml`` suffix is
     always a path. Raises :class:`lsc.SceneError`."""
-    from . import data
     from .scene import Scene
+    return Scene.load(scene_file(text))  # the loader says what is wrong with it
+
+
+def scene_file(text: str | None) -> Path:
+    """The TOML file of the scene named on the command line (see :func:`resolve_scene`); raises
+    :class:`lsc.SceneError` for a name that is neither a file nor a packaged scene."""
+    from . import data
     if text is None:
-        return data.load(DEFAULT_SCENE)
+        return data.path(DEFAULT_SCENE)
     looks_like_path = any(c in text for c in "/\\") or text.lower().endswith(".toml")
     if not looks_like_path and text in data.names():
-        return data.load(text)
+        return data.path(text)
     if looks_like_path or Path(text).expanduser().exists():
-        return Scene.load(Path(text).expanduser())  # the loader says what is wrong with it
+        return Path(text).expanduser()
     data.path(text)  # raises: neither a file nor a packaged scene (with a did-you-mean)
     raise AssertionError("unreachable")
 
@@ -130,6 +138,17 @@ def _solver_options(args) -> dict:
     return {n: getattr(args, n) for n in names if getattr(args, n, None) is not None}
 
 
+def add_solver_options(p) -> None:
+    """Declare ``--method``, ``--rtol``, ``--atol``, ``--dt`` and ``--integrator`` on the
+    subcommand parser ``p`` (read back by :func:`_solver_options` and ``args.method``)."""
+    from .scene import METHODS
+    p.add_argument("--method", choices=METHODS, help="backend (overrides the scene's [solver])")
+    p.add_argument("--rtol", type=_positive_float, help="relative tolerance (scipy, diffrax)")
+    p.add_argument("--atol", type=_positive_float, help="absolute tolerance (scipy, diffrax)")
+    p.add_argument("--dt", type=_positive_float, help="time step [s] (reference)")
+    p.add_argument("--integrator", help="integrator (scipy: DOP853, RK45, LSODA, Radau, ...)")
+
+
 def _positive_float(text: str) -> float:
     try:
         x = float(text)
@@ -142,18 +161,13 @@ def _positive_float(text: str) -> float:
 
 # --------------------------------------------------------------------------- lsc run
 def _add_run(sub) -> None:
-    from .scene import METHODS
     p = sub.add_parser("run", help="simulate one scene: summary, CSV, JSON and plots",
                        description="Simulate one crash. Prints the summary table and writes "
                        "series.csv, summary.json, acceleration.png, velocity.png and ifd.png.")
     p.add_argument("scene", nargs="?", metavar="SCENE",
                    help="a scene TOML file or a packaged scene name (default: the packaged "
                         "'default', the paper's parametric study 1 with e = 0.4)")
-    p.add_argument("--method", choices=METHODS, help="backend (overrides the scene's [solver])")
-    p.add_argument("--rtol", type=_positive_float, help="relative tolerance (scipy, diffrax)")
-    p.add_argument("--atol", type=_positive_float, help="absolute tolerance (scipy, diffrax)")
-    p.add_argument("--dt", type=_positive_float, help="time step [s] (reference)")
-    p.add_argument("--integrator", help="integrator (scipy: DOP853, RK45, LSODA, Radau, ...)")
+    add_solver_options(p)
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output folder (default: {DEFAULT_OUT}/)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figures")
@@ -273,9 +287,52 @@ def _cmd_scenes(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- lsc report
+DEFAULT_REPORT = "report.html"
+
+
+def _add_report(sub) -> None:
+    from .report import MC_SAMPLES, MC_SEED
+    p = sub.add_parser("report", help="a self-contained HTML report of one crash, for a case file",
+                       description="Simulate one crash and write one self-contained HTML file "
+                       "(figures embedded, nothing loaded from elsewhere): the scene as given and "
+                       "its SHA-256, the method, tolerances and accuracy, versions, the summary "
+                       "and impacts, warnings, the MER cross-check, the figures, the scene's "
+                       "uncertainty and failure-force bound results, and a methods paragraph.")
+    p.add_argument("scene", nargs="?", metavar="SCENE",
+                   help="a scene TOML file or a packaged scene name (default: the packaged "
+                        "'default', as for lsc run)")
+    add_solver_options(p)
+    p.add_argument("--n", type=int, default=MC_SAMPLES,
+                   help=f"Monte Carlo samples of the scene's [uncertainty] table "
+                        f"(default {MC_SAMPLES})")
+    p.add_argument("--seed", type=int, default=MC_SEED,
+                   help=f"Monte Carlo seed, stated in the report (default {MC_SEED})")
+    p.add_argument("--out", default=DEFAULT_REPORT, metavar="FILE",
+                   help=f"the HTML file (default: {DEFAULT_REPORT})")
+    add_overwrite_option(p)
+    p.set_defaults(func=_cmd_report)
+
+
+def _cmd_report(args) -> int:
+    from .report import write_report
+    if args.n < 1:
+        raise SceneError("n", f"the number of samples must be positive, got {args.n}")
+    file = scene_file(args.scene)
+    resolve_scene(args.scene)  # a bad scene is refused before anything else
+    refuse_existing([Path(args.out)], args.overwrite)  # before the solve, not after
+    opts = _solver_options(args)
+    if args.method is not None:
+        opts["method"] = args.method
+    path = write_report(file, args.out, overwrite=args.overwrite, mc_samples=args.n,
+                        seed=args.seed, **opts)
+    print(f"report written to {path}")
+    return 0
+
+
 # --------------------------------------------------------------------------- the parser
 #: The subcommands, in the order ``lsc --help`` lists them (then the analyses: bound, mc).
-COMMANDS = [_add_run, _add_sweep, _add_scenes]
+COMMANDS = [_add_run, _add_sweep, _add_scenes, _add_report]
 
 
 def _analysis_commands() -> list:
