@@ -211,3 +211,33 @@ def test_sensitivity_files_all_or_none(main, tmp_path, capsys, monkeypatch):
     monkeypatch.undo()
     assert main(sens + [str(png), "--overwrite"]) == 0
     assert json.loads(js.read_text())["params"] and png.stat().st_size > 1000
+
+
+def test_compare_prints_the_rating_and_writes_all_files_or_refuses(main, capsys, tmp_path):
+    """``lsc compare`` of the default scene against the shipped synthetic test (made from that
+    scene): per-vehicle rows equal to the API's comparison, ratings near 1, files written once and
+    refused the second time (exit 2, files unchanged)."""
+    from lsc import data
+    from lsc.analysis import compare, read_channels
+    test = data.path("default").parent / "synthetic_test.csv"
+    out = tmp_path / "cmp"
+    assert main(["compare", "default", str(test), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    expected = compare(lsc.solve(data.load("default")),
+                       read_channels(test))
+    for row in expected.rows():
+        assert f"{row['simulated']:.5g}" in text and f"{row['measured']:.5g}" in text
+    for ch, r in expected.iso18571.items():
+        assert ch in text and f"{r.total:.4f}" in text and r.total > 0.95
+    written = {f: (out / f).read_bytes() for f in ("comparison.csv", "comparison.json",
+                                                    "comparison.png")}
+    assert json.loads(written["comparison.json"])["iso18571"].keys() == expected.iso18571.keys()
+    assert main(["compare", "default", str(test), "--out", str(out)]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert {f: (out / f).read_bytes() for f in written} == written
+
+
+def test_compare_refuses_a_missing_data_file(main, capsys, tmp_path):
+    assert main(["compare", "default", str(tmp_path / "nope.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("lsc: error: ") and "nope.csv" in err

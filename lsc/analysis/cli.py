@@ -5,6 +5,8 @@
               [--margin-steps N] [--method M] [--json FILE] [--overwrite]
     lsc mc SCENE [--n N] [--seed S] [--uncertainty FILE] [--method M] [--percentiles 5,50,95]
            [--out DIR] [--no-plots] [--no-progress] [--overwrite]
+    lsc compare SCENE DATA [--method M] [--cfc C] [--time-zero T] [--out DIR] [--no-plots]
+                [--overwrite]
     lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...] [--method diffrax|finite-difference]
                     [--rtol R] [--backend B] [--plot FILE] [--plot-metric M] [--swing R] [--json FILE]
                     [--overwrite]
@@ -26,7 +28,7 @@ from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
 __all__ = ["add_bound", "cmd_bound", "add_mc", "cmd_mc", "add_sensitivity", "cmd_sensitivity",
-           "COMMANDS", "load_with_uncertainty"]
+           "add_compare", "cmd_compare", "COMMANDS", "load_with_uncertainty"]
 
 
 def _number_or_quantity(text: str):
@@ -255,5 +257,58 @@ def _sensitivity_files(args) -> dict[str, Path]:
     return files
 
 
+# --------------------------------------------------------------------------- lsc compare
+#: The files ``lsc compare --out DIR`` writes.
+COMPARE_FILES = ("comparison.csv", "comparison.json", "comparison.png")
+
+
+def add_compare(sub) -> None:
+    """Declare ``lsc compare``."""
+    from ..scene import METHODS
+    p = sub.add_parser("compare", help="a simulation against measured test channels: metric "
+                       "differences and the ISO/TS 18571 rating",
+                       description="Solve the scene, read the test's channels (a CSV/TSV/Excel "
+                       "table with headers such as 'accel_target [g]', or an ISO-MME data set: "
+                       "folder, .zip or .mme) and compare them: peak acceleration, delta-V and "
+                       "pulse duration per vehicle, measured and simulated, and the ISO/TS 18571 "
+                       "corridor, phase, magnitude, slope and total scores of each channel.")
+    p.add_argument("scene", metavar="SCENE", help="a scene TOML file or a packaged scene name")
+    p.add_argument("data", metavar="DATA", help="the test's channels (table or ISO-MME data set)")
+    p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
+    p.add_argument("--cfc", type=float, default=None, metavar="C",
+                   help="filter every channel with the SAE J211 CFC filter of this class "
+                        "(60, 180, 600, 1000; default: as recorded)")
+    p.add_argument("--time-zero", type=float, default=0.0, metavar="T",
+                   help="the file time [s] of first contact (default 0)")
+    p.add_argument("--out", metavar="DIR", help="write comparison.csv, comparison.json and "
+                                                "comparison.png (the overlay) here")
+    p.add_argument("--no-plots", action="store_true", help="with --out: no comparison.png")
+    add_overwrite_option(p)
+    p.set_defaults(func=cmd_compare)
+
+
+def cmd_compare(args) -> int:
+    """Run ``lsc compare``: print the comparison (and write CSV, JSON and the overlay figure)."""
+    from ..api import solve
+    from ..cli import resolve_scene
+    from .channels import read_channels
+    from .compare import compare
+    scene = resolve_scene(args.scene)
+    out = Path(args.out) if args.out else None
+    files = [out / f for f in COMPARE_FILES] if out else []
+    refuse_existing(files, args.overwrite)
+    channels = read_channels(args.data, time_zero=args.time_zero, cfc=args.cfc)
+    comparison = compare(solve(scene, method=args.method), channels)
+    print(comparison.summary())
+    if out:
+        writers = {out / "comparison.csv": comparison.to_csv,
+                   out / "comparison.json": comparison.to_json}
+        if not args.no_plots:
+            writers[out / "comparison.png"] = lambda file: comparison.figure().savefig(file, dpi=120)
+        written = write_files(writers, overwrite=args.overwrite, replaces=files)
+        print(f"\nwritten to {out}/: " + ", ".join(p.name for p in written))
+    return 0
+
+
 #: The subcommands this module adds to ``lsc.cli.COMMANDS``.
-COMMANDS = [add_bound, add_mc, add_sensitivity]
+COMMANDS = [add_bound, add_mc, add_sensitivity, add_compare]

@@ -65,6 +65,23 @@ class Comparison:
                  "simulated": sim, "difference": diff}
                 for v in self.vehicles for m, (meas, sim, diff) in v.metrics.items()]
 
+    def summary(self) -> str:
+        """A plain-text table (what ``lsc compare`` prints): each vehicle's metrics, measured,
+        simulated and their difference, then the ISO/TS 18571 scores of each rated channel."""
+        rows = self.rows()
+        w = max([7, *(len(r["vehicle"]) for r in rows), *(len(ch) for ch in self.iso18571)])
+        lines = [f"{'vehicle':<{w}} {'metric':<17} {'unit':>7} {'measured':>11} "
+                 f"{'simulated':>11} {'difference':>11}"]
+        lines += [f"{r['vehicle']:<{w}} {r['metric']:<17} {r['unit']:>7} {r['measured']:>11.5g} "
+                  f"{r['simulated']:>11.5g} {r['difference']:>11.4g}" for r in rows]
+        if self.iso18571:
+            lines += ["", f"{'ISO/TS 18571':<{w}} {'corridor':>9} {'phase':>9} {'magnitude':>9} "
+                          f"{'slope':>9} {'total':>9}"]
+            lines += [f"{ch:<{w}} {r.corridor:>9.4f} {r.phase:>9.4f} {r.magnitude:>9.4f} "
+                      f"{r.slope:>9.4f} {r.total:>9.4f}" for ch, r in self.iso18571.items()]
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
     def to_frame(self):
         """The metric table (:meth:`rows`) as a pandas DataFrame."""
         import pandas as pd
