@@ -11,7 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Result", "Event", "METRICS"]
+from .errors import SimulationError
+from .impacts import Impact, check_resolved, find_impacts
+
+__all__ = ["Result", "Event", "Impact", "METRICS"]
 
 #: The scalar metrics of a result: name → (kind of unit, per "vehicle" | "contact" | "scene").
 METRICS = {
@@ -28,6 +31,20 @@ METRICS = {
     "energy_absorbed": ("energy", "contact"),
     "energy_returned": ("energy", "contact"),
     "failure_time": ("time", "contact"),
+}
+
+#: Metrics of the whole run (not batch metrics): name → (kind of unit, per ...).
+TOTALS = {
+    "delta_v_total": ("velocity", "vehicle"),
+    "duration_total": ("time", "scene"),
+}
+
+#: Where NaN is a documented value ("not applicable"), and when: name → test on the result.
+_NOT_APPLICABLE = {
+    "failure_time": lambda r: ~r.failed,
+    "restitution": lambda r: np.array([not getattr(m, "struck", False)
+                                       for m in _first_of_contact(r)], bool),
+    "restitution_energy": lambda r: ~(r.energy_absorbed > 0),
 }
 
 _SERIES_KINDS = {"t": "time", "x": "length", "v": "velocity", "a": "acceleration",
@@ -88,6 +105,10 @@ class Result:
     contact_time: np.ndarray = field(init=False)
     separation_time: np.ndarray = field(init=False)
     failure_time: np.ndarray = field(init=False)
+    impacts: tuple = field(init=False)
+    delta_v_total: np.ndarray = field(init=False)
+    duration_total: float = field(init=False)
+    warnings: tuple = field(init=False)
 
     @classmethod
     def build(cls, scene, *, t, x, v, a, deformation, force, events, contacts, v_final,
@@ -96,58 +117,89 @@ class Result:
 
         ``contacts`` is a list of dicts with ``dmax, fmax, dperm, ec, er`` (max and permanent
         deformation, force at max deformation, absorbed and returned energy) per contact;
-        ``v_final`` (N,) the velocities after the last event.
+        ``v_final`` (N,) the velocities at the last separation (after the crash). Raises
+        :class:`~lsc.SimulationError` when an impact is too short for the absolute times to
+        resolve it, or a value is NaN or infinite where a number is expected.
         """
         r = cls(scene=scene, t=np.asarray(t, float), x=np.asarray(x, float),
                 v=np.asarray(v, float), a=np.asarray(a, float),
                 deformation=np.asarray(deformation, float), force=np.asarray(force, float),
                 events=list(events), method=method, tolerances=dict(tolerances),
                 stats=dict(stats))
-        v0 = scene.speeds
+        r.warnings = tuple(str(w) for w in r.stats.get("warnings", ()))
         r.v_final = np.asarray(v_final, float)
-        r.delta_v = r.v_final - v0
-        idx = np.argmax(np.abs(r.a), axis=0)
-        r.peak_acceleration = r.a[idx, np.arange(r.a.shape[1])]
-        r.peak_acceleration_g = r.peak_acceleration / scene.g
         r.max_deformation = np.array([c["dmax"] for c in contacts], float)
         r.permanent_deformation = np.array([c["dperm"] for c in contacts], float)
-        r.peak_force = np.max(r.force, axis=0) if r.force.size else np.zeros(len(contacts))
         r.energy_absorbed = np.array([c["ec"] for c in contacts], float)
         r.energy_returned = np.array([c["er"] for c in contacts], float)
-        K = len(contacts)
-        r.contact_time = np.full(K, np.nan)
-        r.separation_time = np.full(K, np.nan)
-        for ev in r.events:
-            if ev.kind == "contact" and np.isnan(r.contact_time[ev.index]):
-                r.contact_time[ev.index] = ev.time
-            if "separation" in ev.kind:
-                r.separation_time[ev.index] = ev.time
         with np.errstate(invalid="ignore", divide="ignore"):
-            # Eq. 9, over the closing speed at t = 0; undefined (NaN, not ±inf) for a contact
-            # that was not closing then (in a chain, vehicles at rest in front: such a contact
-            # is closed by the crash behind it, its closing speed is whatever that makes it,
-            # from zero up); the energy definition holds for every contact that closed
-            closing = v0[:-1] - v0[1:]
-            closing = np.where(closing > 0, closing, np.nan)
-            r.restitution = (r.v_final[1:] - r.v_final[:-1]) / closing
+            # NaN (not applicable) for a contact that never absorbed any energy (never touched)
             r.restitution_energy = np.sqrt(r.energy_returned / r.energy_absorbed)
-        # bumper failure: when the force first exceeded the failure force (NaN: never, or none set)
-        r.failure_time = np.full(K, np.nan)
-        for k, c in enumerate(scene.contacts):
-            if c.failure is None:
-                continue
-            times = [ev.time for ev in r.events
-                     if "failure" in ev.kind.split("+") and ev.index == k]
-            if times:
-                r.failure_time[k] = times[0]
-            elif r.force.size and np.any(r.force[:, k] > c.failure.force):
-                r.failure_time[k] = r.t[np.argmax(r.force[:, k] > c.failure.force)]
-        touched = np.isfinite(r.contact_time)
-        if np.any(touched) and np.all(np.isfinite(r.separation_time[touched])):
-            r.duration = float(np.max(r.separation_time[touched]) - np.min(r.contact_time[touched]))
-        else:
-            r.duration = float("nan")
+        r.impacts = find_impacts(r, r.v_final, contacts)
+        for imp in r.impacts:
+            check_resolved(imp.t_start, imp.t_end, f"contact {imp.contact}: the impact")
+        r._headline()
+        r.failure_time = _failure_times(r)
+        _check_finite(r)
         return r
+
+    def _headline(self) -> None:
+        """The headline metrics from the impacts: each vehicle's and each contact's first
+        impact (for a two-vehicle scene the first impact of the scene); totals over the run."""
+        N, K = self.v.shape[1], self.deformation.shape[1]
+        imps = self.impacts
+        first_of_vehicle = [next((m for m in imps if i in m.vehicles), None) for i in range(N)]
+        first_of_contact = _first_of_contact(self)
+        self.delta_v = np.array([0.0 if m is None else m.delta_v[m.vehicles.index(i)]
+                                 for i, m in enumerate(first_of_vehicle)])
+        self.peak_acceleration = np.array(
+            [0.0 if m is None else m.peak_acceleration[m.vehicles.index(i)]
+             for i, m in enumerate(first_of_vehicle)])
+        self.peak_acceleration_g = self.peak_acceleration / self.scene.g
+        self.peak_force = np.array([0.0 if m is None else m.peak_force for m in first_of_contact])
+        self.restitution = np.array([np.nan if m is None else m.restitution
+                                     for m in first_of_contact])
+        self.contact_time = np.array([np.nan if m is None else m.t_start for m in first_of_contact])
+        last = [max((m.t_end for m in imps if m.contact == k), default=np.nan) for k in range(K)]
+        self.separation_time = np.array(last, float)
+        self.duration = imps[0].duration if imps else 0.0
+        self.delta_v_total = self.v_final - np.asarray(self.scene.speeds, float)
+        if imps:
+            t0, t1 = min(m.t_start for m in imps), max(m.t_end for m in imps)
+            check_resolved(t0, t1, "the crash")
+            self.duration_total = t1 - t0
+        else:
+            self.duration_total = 0.0
+
+    def _raise_peaks(self, spans) -> None:
+        """Raise the impacts' peaks to those located between samples (on a dense output, or in
+        closed form) by the backend: ``spans`` is a list of ``(t0, t1, force (K,) [force],
+        acceleration (N,) [acceleration], signed)``, each applied to the impacts that hold
+        ``[t0, t1]``."""
+        if not spans:
+            return
+        t0 = np.array([s[0] for s in spans], float)
+        t1 = np.array([s[1] for s in spans], float)
+        F = np.array([s[2] for s in spans], float)
+        A = np.array([s[3] for s in spans], float)
+        new = []
+        for m in self.impacts:
+            inside = np.nonzero((t0 >= m.t_start) & (t1 <= m.t_end))[0]
+            if inside.size:
+                pair = list(m.vehicles)
+                acc = A[inside][:, pair]
+                pick = np.argmax(np.abs(acc), axis=0)
+                m = m.raise_peaks(float(np.max(F[inside, m.contact])),
+                                  acc[pick, [0, 1]], self.scene.g)
+            new.append(m)
+        self.impacts = tuple(new)
+        self._headline()
+        _check_finite(self)
+
+    @property
+    def first_impact(self) -> Impact | None:
+        """The first impact of the scene (the crash pulse; ``None`` if nothing touched)."""
+        return self.impacts[0] if self.impacts else None
 
     @property
     def failed(self) -> np.ndarray:
@@ -243,3 +295,45 @@ class Result:
     def __repr__(self) -> str:
         return (f"<Result {self.scene.name!r} method={self.method} duration={self.duration:.6g} "
                 f"delta_v={np.array2string(self.delta_v, precision=6)}>")
+
+
+def _first_of_contact(r: Result) -> list:
+    """Each contact's first impact (``None`` where it never touched)."""
+    return [next((m for m in r.impacts if m.contact == k), None)
+            for k in range(r.deformation.shape[1])]
+
+
+def _failure_times(r: Result) -> np.ndarray:
+    """Per contact: when the force first exceeded the failure force (NaN: never, or none set)."""
+    out = np.full(len(r.scene.contacts), np.nan)
+    for k, c in enumerate(r.scene.contacts):
+        if c.failure is None:
+            continue
+        times = [ev.time for ev in r.events if "failure" in ev.kind.split("+") and ev.index == k]
+        if times:
+            out[k] = times[0]
+        elif r.force.size and np.any(r.force[:, k] > c.failure.force):
+            out[k] = r.t[np.argmax(r.force[:, k] > c.failure.force)]
+    return out
+
+
+def _check_finite(r: Result) -> None:
+    """Raise :class:`SimulationError` if a series or a metric is NaN or infinite where a number
+    is expected (NaN is allowed only where :data:`_NOT_APPLICABLE` documents it)."""
+    bad = [name for name in _SERIES_KINDS if not np.all(np.isfinite(getattr(r, name)))]
+    for name in (*METRICS, *TOTALS):
+        value = np.asarray(getattr(r, name), float)
+        allowed = np.isnan(value) & _not_applicable(r, name, value.shape)
+        if not np.all(np.isfinite(value) | allowed):
+            bad.append(name)
+    if bad:
+        raise SimulationError(
+            f"{r.method}: the solve produced non-finite values in {', '.join(bad)}; the "
+            "scene's magnitudes are beyond what the computation can represent (check the "
+            "speeds, masses, gaps and stiffnesses for absurd values)")
+
+
+def _not_applicable(r: Result, name: str, shape) -> np.ndarray:
+    """Where ``name`` may be NaN (not applicable) on ``r``."""
+    test = _NOT_APPLICABLE.get(name)
+    return np.broadcast_to(test(r), shape) if test else np.zeros(shape, bool)
