@@ -153,6 +153,11 @@ def check_resolved(t0: float, t1: float, what: str) -> None:
     """Raise :class:`SimulationError` when the absolute times ``t0 < t1`` [s] cannot resolve
     the interval between them to :data:`TIME_RESOLUTION` (the result could not represent it)."""
     span = t1 - t0
+    if not np.isfinite(span):
+        raise SimulationError(
+            f"{what} has non-finite times ({t0:.6g} s to {t1:.6g} s): the scene's magnitudes are "
+            "beyond what the computation can represent (check the speeds, masses, gaps and "
+            "stiffnesses for absurd values)")
     ulp = float(np.spacing(max(abs(t0), abs(t1))))
     if not span * TIME_RESOLUTION >= ulp:
         raise SimulationError(

@@ -7,7 +7,7 @@ hysteresis record and the solver statistics. Metrics are computed here, once, fr
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -211,7 +211,8 @@ class Result:
     def units(self) -> dict[str, str]:
         """The unit of every series and metric (pint spelling; ``""`` for dimensionless)."""
         u = {name: self.scene.unit(kind) for name, kind in _SERIES_KINDS.items()}
-        u.update({name: self.scene.unit(kind) for name, (kind, _) in METRICS.items()})
+        u.update({name: self.scene.unit(kind)
+                  for name, (kind, _) in (*METRICS.items(), *TOTALS.items())})
         return u
 
     def metrics(self) -> dict[str, object]:
@@ -231,6 +232,9 @@ class Result:
             "vehicles": [v.name for v in self.scene.vehicles],
             "metrics": {k: plain(v) for k, v in self.metrics().items()},
             "units": {k: self.units[k] for k in METRICS},
+            "totals": {k: plain(getattr(self, k)) for k in TOTALS},
+            "impacts": [{**asdict(m), "duration": m.duration} for m in self.impacts],
+            "warnings": list(self.warnings),
             "events": [{"time": e.time, "kind": e.kind, "index": e.index} for e in self.events],
         }
 
@@ -259,14 +263,20 @@ class Result:
             lines[0] += f" ({tol})"
         w = max(12, *(len(v.name) for v in s.vehicles))
         lines.append("")
+        total = not np.array_equal(self.delta_v, self.delta_v_total)
         lines.append(f"{'vehicle':<{w}} {'v0':>10} {'v_final':>10} {'delta_v':>10} "
-                     f"{'peak a':>11} {'peak a':>8}")
+                     f"{'peak a':>11} {'peak a':>8}" + (f" {'dV total':>10}" if total else ""))
         lines.append(f"{'':<{w}} {u['v_final']:>10} {u['v_final']:>10} {u['delta_v']:>10} "
-                     f"{u['peak_acceleration']:>11} {'g':>8}")
+                     f"{u['peak_acceleration']:>11} {'g':>8}"
+                     + (f" {u['delta_v_total']:>10}" if total else ""))
         for i, veh in enumerate(s.vehicles):
             lines.append(f"{veh.name:<{w}} {veh.speed:>10.4g} {self.v_final[i]:>10.4f} "
                          f"{self.delta_v[i]:>10.4f} {self.peak_acceleration[i]:>11.4g} "
-                         f"{self.peak_acceleration_g[i]:>8.3f}")
+                         f"{self.peak_acceleration_g[i]:>8.3f}"
+                         + (f" {self.delta_v_total[i]:>10.4f}" if total else ""))
+        if total:
+            lines.append("(delta_v and peak a: over the vehicle's first impact; dV total: v_final "
+                         "- v0, over the whole run)")
         lines.append("")
         lines.append(f"{'contact':<{w}} {'D_max':>10} {'D_perm':>10} {'F_peak':>10} "
                      f"{'e (vel)':>8} {'e (energy)':>10}")
@@ -285,12 +295,40 @@ class Result:
             lines.append(f"bumper failure, contact {k} ({force}): "
                          + (f"failed at t = {self.failure_time[k]:.6g} {u['failure_time']}{post}"
                             if self.failed[k] else "not reached"))
+        if len(self.impacts) > 1:
+            lines += ["", *self._impacts_table(w)]
         lines.append("")
-        lines.append(f"pulse duration {self.duration:.6g} {u['duration']}; "
+        total = (f" (whole crash {self.duration_total:.6g} {u['duration']})"
+                 if self.duration_total != self.duration else "")
+        lines.append(f"pulse duration {self.duration:.6g} {u['duration']}{total}; "
                      f"{len(self.events)} events; "
                      + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
                                  for k, v in self.stats.items()))
+        lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
+
+    def _impacts_table(self, w: int) -> list[str]:
+        """The summary's lines for the impacts, in order of first touch."""
+        u, names = self.units, [v.name for v in self.scene.vehicles]
+        labels = [f"{j}: {m.contact} ({names[m.vehicles[0]]}-{names[m.vehicles[1]]})"
+                  for j, m in enumerate(self.impacts, 1)]
+        w = max(w, *map(len, labels))
+        vel, acc = u["delta_v"], u["peak_acceleration"]
+        lines = [f"{'impact':<{w}} {'t_start':>10} {'t_end':>10} {'closing':>9} "
+                 f"{'dV rear':>9} {'dV front':>9} {'peak a rear':>12} {'peak a front':>12} "
+                 f"{'F_peak':>10} {'D_max':>9} {'e (vel)':>8}",
+                 f"{'':<{w}} {u['t']:>10} {u['t']:>10} {vel:>9} {vel:>9} {vel:>9} "
+                 f"{acc:>12} {acc:>12} {u['peak_force']:>10} {u['max_deformation']:>9} {'':>8}"]
+        for label, m in zip(labels, self.impacts):
+            end = f"{m.t_end:>10.6g}" if m.separated else f"{'(open)':>10}"
+            lines.append(f"{label:<{w}} {m.t_start:>10.6g} {end} "
+                         f"{m.closing_speed:>9.4f} {m.delta_v[0]:>+9.4f} {m.delta_v[1]:>+9.4f} "
+                         f"{m.peak_acceleration[0]:>12.4g} {m.peak_acceleration[1]:>12.4g} "
+                         f"{m.peak_force:>10.6g} {m.max_deformation:>9.5f} "
+                         f"{m.restitution:>8.4f}")
+        lines.append("(the tables above report each vehicle's and contact's first impact; "
+                     "e (vel) is nan where a contact was pushed shut, not struck)")
+        return lines
 
     def __repr__(self) -> str:
         return (f"<Result {self.scene.name!r} method={self.method} duration={self.duration:.6g} "
