@@ -133,9 +133,11 @@ def find_impacts(result, v_post: np.ndarray, records: list[dict]) -> tuple[Impac
         ve = v_post[list(pair)] if t1 == t_post else v[rows.stop - 1, pair]
         peak_a = tuple(_signed_peak(a[rows, i]) for i in pair)
         closing, separating = float(vs[0] - vs[1]), float(ve[1] - ve[0])
-        rec = records[k]
-        e_energy = float(np.sqrt(rec["er"] / rec["ec"])) if count[k] == 1 and rec["ec"] > 0 \
-            else None
+        rec, alone = records[k], count[k] == 1
+        e_energy = float(np.sqrt(rec["er"] / rec["ec"])) if alone and rec["ec"] > 0 else None
+        # (the record's max deformation is exact; the series holds it at the event, unless a
+        # backend thinned its samples, which none does with several impacts of a contact)
+        crush = float(rec["dmax"]) if alone else float(np.max(result.deformation[rows, k]))
         impacts.append(Impact(
             contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
             closing_speed=closing, separation_speed=separating,
@@ -143,7 +145,7 @@ def find_impacts(result, v_post: np.ndarray, records: list[dict]) -> tuple[Impac
             delta_v=tuple(map(float, ve - vs)), peak_acceleration=peak_a,
             peak_acceleration_g=tuple(x / g for x in peak_a),
             peak_force=float(np.max(result.force[rows, k])),
-            max_deformation=float(np.max(result.deformation[rows, k])),
+            max_deformation=crush,
             restitution=separating / closing if closing > pushed else float("nan"),
             restitution_energy=e_energy, struck=closing > pushed))
     return tuple(impacts)
