@@ -65,18 +65,23 @@ class Event:
 class Result:
     """One simulated crash. Arrays are in the scene's unit system; ``units`` names each field's unit.
 
-    Series: ``t`` (n,), ``x, v, a`` (n, N), ``deformation, force`` (n, K).
-    Per vehicle (N,): ``delta_v, v_final, peak_acceleration`` (signed, largest magnitude),
-    ``peak_acceleration_g``. Per contact (K,): ``max_deformation, permanent_deformation,
-    peak_force, restitution`` (velocity definition, Eq. 9, over the closing speed at t = 0: NaN
-    for a contact of a chain that was not closing then), ``restitution_energy`` (energy
-    definition, Eq. 10: ``sqrt(returned / absorbed)``), ``energy_absorbed, energy_returned``.
-    ``duration``: first contact to last separation [time]. ``failure_time`` (K,): when the
-    contact force first exceeded the contact's failure force (NaN if never; ``failed`` says
-    which); with a post-failure curve, when the deformation first reached the failure point
-    ``D_f`` (where the loading curve reaches the failure force). ``events``: list of :class:`Event`.
-    ``method``, ``tolerances`` (rtol, atol or dt) and ``stats`` (steps, rhs evaluations,
-    segments, wall time [s]) say how it was computed.
+    Series: ``t`` (n,), ``x, v, a`` (n, N), ``deformation, force`` (n, K). ``impacts``: every
+    touch → separation episode of every contact (:class:`~lsc.result.Impact`), in order of
+    first touch; ``first_impact`` is the crash pulse. Headline metrics, each vehicle's and each
+    contact's first impact: ``delta_v`` (N,) (speed at separation minus speed at touch),
+    ``peak_acceleration`` (N,) (signed, largest magnitude), ``peak_acceleration_g``,
+    ``duration`` (the scene's first impact) [time], ``peak_force`` (K,), ``restitution`` (K,)
+    (velocity definition, Eq. 9, over the closing speed at touch; NaN, not applicable, for a
+    contact that never touched or was pushed shut). Over the run, per contact:
+    ``max_deformation, permanent_deformation, energy_absorbed, energy_returned``,
+    ``restitution_energy`` (Eq. 10: ``sqrt(returned / absorbed)``; NaN where nothing was
+    absorbed), ``failure_time`` (when the force first exceeded the failure force, NaN if never;
+    ``failed`` says which; with a post-failure curve, when the deformation first reached the
+    failure point). Totals: ``v_final`` (N,) (after the last separation), ``delta_v_total``
+    (``v_final`` minus the speeds at t = 0), ``duration_total`` (first touch to last
+    separation). ``events``: list of :class:`Event`. ``method``, ``tolerances`` (rtol, atol or
+    dt), ``stats`` (steps, rhs evaluations, segments, wall time [s]) and ``warnings`` (what the
+    backend says about its accuracy) say how it was computed. See the metrics page of the docs.
     """
 
     scene: object
