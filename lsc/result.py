@@ -308,7 +308,7 @@ class Result:
         lines.append(f"pulse duration {self.duration:.6g} {u['duration']}{total}; "
                      f"{len(self.events)} events; "
                      + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                                 for k, v in self.stats.items()))
+                                 for k, v in self.stats.items() if k != "warnings"))
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 

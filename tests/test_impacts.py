@@ -247,6 +247,7 @@ def test_summary_shows_the_impacts_when_there_are_several_and_the_warnings():
     warned = _rebuild(one, stats={**one.stats, "warnings": ["dt is coarse against the pulse"]})
     assert warned.warnings == ("dt is coarse against the pulse",)
     assert "warning: dt is coarse against the pulse" in warned.summary()
+    assert warned.summary().count("dt is coarse") == 1  # not again among the statistics
 
 
 def test_to_dict_lists_impacts_totals_and_warnings_as_json():
