@@ -165,7 +165,8 @@ class Result:
         self.restitution = np.array([np.nan if m is None else m.restitution
                                      for m in first_of_contact])
         self.contact_time = np.array([np.nan if m is None else m.t_start for m in first_of_contact])
-        last = [max((m.t_end for m in imps if m.contact == k), default=np.nan) for k in range(K)]
+        last = [max((m.t_end for m in imps if m.contact == k and m.separated), default=np.nan)
+                for k in range(K)]
         self.separation_time = np.array(last, float)
         self.duration = imps[0].duration if imps else 0.0
         self.delta_v_total = self.v_final - np.asarray(self.scene.speeds, float)
