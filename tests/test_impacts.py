@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 import lsc
-from lsc.analysis.mer import format_mer, mer_for
 from lsc.result import Result
 
 G_US = 32.2
@@ -162,21 +161,6 @@ def test_paper_scene_has_one_impact_equal_to_the_headline_metrics(method):
     assert r.restitution[0] == imp.restitution == pytest.approx(0.4, rel=tol)
     assert imp.restitution_energy == r.restitution_energy[0]
     assert imp.max_deformation == pytest.approx(r.max_deformation[0], rel=1e-12)
-
-
-# ------------------------------------------------------------------ MER
-def test_mer_uses_the_speeds_at_first_contact():
-    brake = {"mu": 0.7, "mu_static": 0.8}
-    r = lsc.solve(two_cars(5.0, 10.0, gap=1.0, brake2=brake), method="exact")
-    m = mer_for(r)
-    assert m.closing_speed == pytest.approx(5.0, rel=1e-12)  # not 5 - 10 at t = 0
-    m1, m2 = 3500.0 / G_US, 3000.0 / G_US
-    assert m.delta_v1 == pytest.approx(-1.4 * m2 * 5.0 / (m1 + m2), rel=1e-12)
-    text = format_mer(r)
-    assert "speeds at first contact" in text and "closing speed 5 ft/s" in text
-    # a scene is solved first when something acts before the touch
-    assert mer_for(two_cars(5.0, 10.0, gap=1.0, brake2=brake)).closing_speed == \
-        pytest.approx(5.0, rel=1e-12)
 
 
 # ------------------------------------------------------------------ times and non-finite values
