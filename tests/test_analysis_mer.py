@@ -90,6 +90,28 @@ def test_paper_study1_and_format():
         mer_for(chain)
 
 
+def test_mer_uses_the_speeds_at_first_contact():
+    # the target brakes from 10 ft/s to rest before the bullet (5 ft/s) closes a 1 ft gap:
+    # MER starts from the speeds at the touch (closing 5 ft/s), not those at t = 0 (-5 ft/s)
+    sc = {"units": "US", "g": "32.2 ft/s^2",
+          "vehicles": [{"weight": 3500, "speed": 5.0},
+                       {"weight": 3000, "speed": 10.0, "brake": {"mu": 0.7, "mu_static": 0.8}}],
+          "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4},
+                        "gap": 1.0}]}
+    r = lsc.solve(sc, method="exact")
+    m = mer_for(r)
+    assert m.closing_speed == pytest.approx(5.0, rel=1e-12)
+    m1, m2 = 3500.0 / 32.2, 3000.0 / 32.2
+    assert m.delta_v1 == pytest.approx(-1.4 * m2 * 5.0 / (m1 + m2), rel=1e-12)
+    assert m.delta_v2 == pytest.approx(1.4 * m1 * 5.0 / (m1 + m2), rel=1e-12)
+    text = format_mer(r)
+    assert "speeds at first contact" in text and "closing speed 5 ft/s" in text
+    # set beside the simulated ΔV of that impact, not v_final - v0 (-10 ft/s for the target)
+    assert f"{r.delta_v[1]:+.6g} ft/s (simulation)" in text and r.delta_v[1] > 0
+    # a scene is solved first when something acts before the touch
+    assert mer_for(sc).closing_speed == pytest.approx(5.0, rel=1e-12)
+
+
 def test_bad_arguments():
     with pytest.raises(lsc.SceneError, match="exactly two"):
         mer(1.0, 1.0, 3.0, 0.0)

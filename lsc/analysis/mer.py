@@ -107,27 +107,38 @@ def mer(m1, m2, v1=None, v2=0.0, *, restitution=None, energy=None) -> MER:
 def mer_for(obj, *, contact: int = 0) -> MER:
     """MER ΔVs for a two-vehicle scene or result, to set beside the simulation.
 
-    For a :class:`~lsc.Result` the restitution is the one the simulation achieved by its energies
-    (``restitution_energy``, Eq. 10, independent of the simulated velocities); for a scene whose
-    unloading is given as ``restitution`` it is that value; any other scene is solved first.
-    Tyre forces (``brake``) are outside MER: with them the two differ.
+    The speeds are those at first contact (the closing speed of the first impact), never those
+    at t = 0: with braking before the touch they differ. For a :class:`~lsc.Result` they are read
+    off its first impact, and the restitution is the one the simulation achieved by its energies
+    (``restitution_energy``, Eq. 10, independent of the simulated velocities); for a scene with
+    no braking whose unloading is given as ``restitution`` they are the scene's speeds (nothing
+    acts before the touch) and that value; any other scene is solved first.
+    Tyre forces during the impact (``brake``) are outside MER: with them the two differ.
     """
     from ..result import Result
 
-    if isinstance(obj, Result):
-        scene, e = obj.scene, float(obj.restitution_energy[contact])
-    else:
+    if not isinstance(obj, Result):
         scene = Scene.load(obj)
         _two(scene)
         u = getattr(scene.contacts[contact].law, "unloading", None)
-        if isinstance(u, Restitution):
-            e = u.e
-        else:
-            from ..api import solve
-            e = float(solve(scene).restitution_energy[contact])
-    _two(scene)
-    (m1, m2), (v1, v2) = scene.masses, scene.speeds
-    return mer(m1, m2, v1, v2, restitution=e)
+        if isinstance(u, Restitution) and not any(v.brake is not None for v in scene.vehicles):
+            (m1, m2), (v1, v2) = scene.masses, scene.speeds
+            return mer(m1, m2, v1, v2, restitution=u.e)
+        from ..api import solve
+        obj = solve(scene)
+    _two(obj.scene)
+    touch = _first_impact(obj, contact)
+    m1, m2 = obj.scene.masses
+    v1, v2 = touch.v_start
+    return mer(m1, m2, v1, v2, restitution=float(obj.restitution_energy[contact]))
+
+
+def _first_impact(result, contact: int):
+    impact = next((m for m in result.impacts if m.contact == contact), None)
+    if impact is None:
+        raise SceneError(f"contacts[{contact}]", "the vehicles never touch: there is no impact "
+                         "for MER")
+    return impact
 
 
 def _two(scene: Scene) -> None:
@@ -144,12 +155,14 @@ def format_mer(result) -> str | None:
     s = result.scene
     unit = s.unit("velocity")
     names = [v.name for v in s.vehicles]
+    touch = _first_impact(result, 0)
     lines = [f"MER cross-check (momentum with e = {m.restitution:.6g}, the simulated energy "
-             f"restitution):"]
+             f"restitution, from the speeds at first contact, t = {touch.t_start:.6g} "
+             f"{s.unit('time')}: closing speed {m.closing_speed:.6g} {unit}):"]
     for n, dv_m, dv_s in zip(names, (m.delta_v1, m.delta_v2), result.delta_v):
         lines.append(f"  {n}: delta_v {dv_m:+.6g} {unit} (MER), {dv_s:+.6g} {unit} (simulation), "
                      f"difference {dv_s - dv_m:+.2g}")
     if any(v.brake is not None for v in s.vehicles):
         lines.append("  (tyre forces act in the simulation and not in MER: they differ by the "
-                     "braking impulse)")
+                     "braking impulse during the impact)")
     return "\n".join(lines)

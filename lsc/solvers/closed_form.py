@@ -181,8 +181,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
                      events=events, contacts=records, v_final=met["v_final"], method="closed-form",
                      tolerances={}, stats=stats)
     # The exact peak (at max deformation) rather than the largest sample.
-    r.peak_force = np.array([float(met["peak_force"])])
-    r.peak_acceleration = np.asarray(met["peak_acceleration"], float)
-    r.peak_acceleration_g = np.asarray(met["peak_acceleration_g"], float)
+    imp = r.impacts[0]
+    r._raise_peaks([(imp.t_start, imp.t_end, [float(met["peak_force"])], met["peak_acceleration"])])
     r.failure_time = np.array([float(met["failure_time"])])
     return r

@@ -155,10 +155,9 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
                      contacts=rec, v_final=np.array([V1_last, V2_last]), method="reference",
                      tolerances={"dt": dt}, stats=stats)
     # Peaks over every step, not only the kept samples.
-    r.peak_force = np.array([Farr.max()])
     ia = np.argmax(np.abs(a), axis=0)
-    r.peak_acceleration = a[ia, [0, 1]]
-    r.peak_acceleration_g = r.peak_acceleration / scene.g
+    imp = r.impacts[0]
+    r._raise_peaks([(imp.t_start, imp.t_end, [Farr.max()], a[ia, [0, 1]])])
     return r
 
 

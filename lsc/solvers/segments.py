@@ -160,11 +160,13 @@ def _refine_peaks(model, segments, r, probes: int = 33) -> None:
         return (np.broadcast_to(np.asarray(F, float), (K, yy.shape[1])),
                 np.broadcast_to(np.asarray(a, float), (N, yy.shape[1])))
 
+    spans = []
     for s in segments:
         if not s.t1 > s.t0:
             continue
         tt = np.linspace(s.t0, s.t1, probes)
         F, a = quantities(s, tt)
+        peaks = [np.zeros(K), np.zeros(N)]
         rows = [(F[k], 0, k, 1.0) for k in range(K)] + [(a[i], 1, i, None) for i in range(N)]
         for vals, kind, idx, sign in rows:
             j = int(np.argmax(np.abs(vals) if sign is None else vals))
@@ -177,9 +179,6 @@ def _refine_peaks(model, segments, r, probes: int = 33) -> None:
 
             res = minimize_scalar(neg, bounds=(lo, hi), method="bounded",
                                   options={"xatol": 1e-14 * max(abs(hi), 1e-300)})
-            best = max(sgn * vals[j], -res.fun)
-            if kind == 0:
-                r.peak_force[idx] = max(r.peak_force[idx], best)
-            elif best > abs(r.peak_acceleration[idx]):
-                r.peak_acceleration[idx] = sgn * best
-    r.peak_acceleration_g = r.peak_acceleration / model.scene.g
+            peaks[kind][idx] = sgn * max(sgn * vals[j], -res.fun)
+        spans.append((s.t0, s.t1, *peaks))
+    r._raise_peaks(spans)  # each impact's peaks over the segments it holds

@@ -1,0 +1,169 @@
+"""Impacts: the touch → separation episodes of each contact, read off a result's series and events.
+
+An impact is one episode of one contact: from its first touch (a ``"contact"`` event, or t = 0
+for a contact closing at the start) to its separation (an event whose kind includes
+``"separation"``). A contact of a chain that closes twice has two impacts. Every quantity of an
+impact is taken over its own interval, so a vehicle's braking before the touch or a later
+impact never enters it. Units: the scene's (see :attr:`lsc.Result.units`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .errors import SimulationError
+
+__all__ = ["Impact", "find_impacts", "check_resolved"]
+
+#: Relative accuracy to which the absolute times must resolve every impact's duration.
+TIME_RESOLUTION = 1e-8
+
+#: A contact whose closing speed at touch is at most this fraction of the largest speed of the
+#: run is pushed shut, not struck (a contact of a chain with no gap, closed by the crash
+#: behind it): its velocity restitution (separation / closing speed) is not applicable.
+PUSHED = 1e-6
+
+
+@dataclass(frozen=True)
+class Impact:
+    """One impact of contact ``contact`` between vehicles ``vehicles = (rear, front)``.
+
+    ``t_start`` (first touch), ``t_end`` (separation; the end of the run if ``separated`` is
+    False) [time]; ``closing_speed`` (rear minus front speed at touch) and ``separation_speed``
+    (front minus rear at ``t_end``) [velocity]; ``v_start, v_end, delta_v`` (rear, front)
+    [velocity]: the speeds at touch and at separation and their difference; ``peak_acceleration``
+    (rear, front) [acceleration]: signed, largest magnitude over the impact, and
+    ``peak_acceleration_g`` [g]; ``peak_force`` [force] and ``max_deformation`` [length] over the
+    impact; ``restitution`` = separation speed / closing speed (velocity definition, Eq. 9) [-];
+    ``restitution_energy`` = sqrt(returned / absorbed energy) (Eq. 10) [-], or ``None`` where
+    the contact closes more than once (its energies are recorded per contact, over the run).
+    """
+
+    contact: int
+    vehicles: tuple
+    t_start: float
+    t_end: float
+    separated: bool
+    closing_speed: float
+    separation_speed: float
+    v_start: tuple
+    v_end: tuple
+    delta_v: tuple
+    peak_acceleration: tuple
+    peak_acceleration_g: tuple
+    peak_force: float
+    max_deformation: float
+    restitution: float
+    restitution_energy: float | None
+    struck: bool
+
+    @property
+    def duration(self) -> float:
+        """``t_end - t_start`` [time]."""
+        return self.t_end - self.t_start
+
+    def raise_peaks(self, force=None, acceleration=None, g=1.0) -> "Impact":
+        """This impact with its peaks raised to ``force`` [force] and ``acceleration`` (rear,
+        front; signed) [acceleration] where they are larger in magnitude."""
+        new = {}
+        if force is not None and force > self.peak_force:
+            new["peak_force"] = float(force)
+        if acceleration is not None:
+            acc = tuple(float(b) if abs(b) > abs(a) else a
+                        for a, b in zip(self.peak_acceleration, acceleration))
+            new["peak_acceleration"] = acc
+            new["peak_acceleration_g"] = tuple(x / g for x in acc)
+        return replace(self, **new)
+
+
+def _parts(kind: str) -> set:
+    return set(kind.split("+"))
+
+
+def episodes(events, K: int, t_last: float) -> list[tuple[int, float, float, bool]]:
+    """``(contact, t_start, t_end, separated)`` of every touch → separation episode, in the order
+    of their first touch (ties by contact index)."""
+    open_at = [None] * K
+    found = []
+    for ev in events:
+        kinds = _parts(ev.kind)
+        if "contact" in kinds and open_at[ev.index] is None:
+            open_at[ev.index] = ev.time
+        if "separation" in kinds and open_at[ev.index] is not None:
+            found.append((ev.index, open_at[ev.index], ev.time, True))
+            open_at[ev.index] = None
+    found += [(k, t0, t_last, False) for k, t0 in enumerate(open_at) if t0 is not None]
+    return sorted(found, key=lambda e: (e[1], e[0]))
+
+
+def _rows(t: np.ndarray, t0: float, t1: float) -> slice:
+    """The series rows of ``[t0, t1]``: at an event time that is sampled twice (end of one
+    segment, start of the next) the row of the segment inside the interval."""
+    i0 = max(int(np.searchsorted(t, t0, side="right")) - 1, 0)
+    i1 = max(int(np.searchsorted(t, t1, side="left")), i0)
+    return slice(i0, min(i1, t.size - 1) + 1)
+
+
+def _signed_peak(a: np.ndarray) -> float:
+    return float(a[np.argmax(np.abs(a))]) if a.size else 0.0
+
+
+def find_impacts(result, v_post: np.ndarray, records: list[dict]) -> tuple[Impact, ...]:
+    """Every impact of ``result`` (series and events set), in order of first touch.
+
+    ``v_post`` (N,) are the velocities at the last separation: the end speeds of an impact that
+    ends then (the reference backend reports them from its own step). ``records`` are the
+    contacts' records (``ec, er``: absorbed and returned energy over the run)."""
+    t, v, a = result.t, result.v, result.a
+    K = result.deformation.shape[1]
+    found = episodes(result.events, K, float(t[-1]))
+    t_post = max((e[2] for e in found if e[3]), default=np.nan)
+    count = np.bincount([e[0] for e in found], minlength=K)
+    g = result.scene.g
+    pushed = PUSHED * float(np.max(np.abs(v), initial=0.0))
+    impacts = []
+    for k, t0, t1, separated in found:
+        rows = _rows(t, t0, t1)
+        pair = (k, k + 1)
+        vs = v[rows.start, pair]
+        if t0 == 0.0:
+            vs = np.asarray(result.scene.speeds, float)[list(pair)]
+        ve = v_post[list(pair)] if t1 == t_post else v[rows.stop - 1, pair]
+        peak_a = tuple(_signed_peak(a[rows, i]) for i in pair)
+        closing, separating = float(vs[0] - vs[1]), float(ve[1] - ve[0])
+        rec, alone = records[k], count[k] == 1
+        e_energy = float(np.sqrt(rec["er"] / rec["ec"])) if alone and rec["ec"] > 0 else None
+        # (the record's max deformation is exact; the series holds it at the event, unless a
+        # backend thinned its samples, which none does with several impacts of a contact)
+        crush = float(rec["dmax"]) if alone else float(np.max(result.deformation[rows, k]))
+        impacts.append(Impact(
+            contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
+            closing_speed=closing, separation_speed=separating,
+            v_start=tuple(map(float, vs)), v_end=tuple(map(float, ve)),
+            delta_v=tuple(map(float, ve - vs)), peak_acceleration=peak_a,
+            peak_acceleration_g=tuple(x / g for x in peak_a),
+            peak_force=float(np.max(result.force[rows, k])),
+            max_deformation=crush,
+            restitution=separating / closing if closing > pushed else float("nan"),
+            restitution_energy=e_energy, struck=closing > pushed))
+    return tuple(impacts)
+
+
+def check_resolved(t0: float, t1: float, what: str) -> None:
+    """Raise :class:`SimulationError` when the absolute times ``t0 < t1`` [s] cannot resolve
+    the interval between them to :data:`TIME_RESOLUTION` (the result could not represent it)."""
+    span = t1 - t0
+    if not np.isfinite(span):
+        raise SimulationError(
+            f"{what} has non-finite times ({t0:.6g} s to {t1:.6g} s): the scene's magnitudes are "
+            "beyond what the computation can represent (check the speeds, masses, gaps and "
+            "stiffnesses for absurd values)")
+    ulp = float(np.spacing(max(abs(t0), abs(t1))))
+    if not span * TIME_RESOLUTION >= ulp:
+        raise SimulationError(
+            f"{what} starts at t = {t0:.6g} s and lasts {span:.3g} s: at that time the clock "
+            f"resolves only {ulp:.3g} s, too coarse to represent the impact (its duration, its "
+            "pulse) to a relative 1e-8. Start the scene closer to the first contact (a smaller "
+            "gap, or the speeds at touch with no gap)")
