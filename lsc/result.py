@@ -336,6 +336,20 @@ class Result:
                      "e (vel) is nan where a contact was pushed shut, not struck)")
         return lines
 
+    def to_dataframe(self):
+        """The time series as a pandas DataFrame (:func:`lsc.frames.result_frame`)."""
+        from .frames import result_frame
+        return result_frame(self)
+
+    def summary_frame(self):
+        """The metrics as a pandas DataFrame (:func:`lsc.frames.summary_frame`)."""
+        from .frames import summary_frame
+        return summary_frame(self)
+
+    def _repr_html_(self) -> str:
+        from .html import result_html
+        return result_html(self)
+
     def __repr__(self) -> str:
         return (f"<Result {self.scene.name!r} method={self.method} duration={self.duration:.6g} "
                 f"delta_v={np.array2string(self.delta_v, precision=6)}>")

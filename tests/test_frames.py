@@ -194,3 +194,12 @@ def test_a_swept_path_whose_unit_lsc_does_not_know_gets_none_not_dimensionless()
     np.testing.assert_array_equal(df["peak_force[0] (lbf)"].to_numpy(), s.peak_force[:, 0])
     pytest.importorskip("xarray")
     assert "units" not in sweep_xarray(s)["contacts.0.damping"].attrs
+
+
+def test_result_methods_are_the_frames_and_html_functions(paper):
+    """``Result.to_dataframe``, ``summary_frame`` and ``_repr_html_`` (Jupyter) are the
+    functions of lsc.frames and lsc.html."""
+    from lsc.html import result_html
+    assert paper.to_dataframe().equals(result_frame(paper))
+    assert paper.summary_frame().equals(summary_frame(paper))
+    assert paper._repr_html_() == result_html(paper)
