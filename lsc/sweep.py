@@ -475,34 +475,44 @@ def _exact_batch(base, values, setters, ok, metrics, status):
         if metrics[name].ndim == 2 and arr.ndim == 1:
             arr = arr[:, None]
         metrics[name][run[good]] = arr[good]
-    for j, code in zip(run[~good], out["status"][~good]):
-        status[j] = f"SimulationError: {exact.BATCH_STATUS[int(code)]}"
+    # A member the batch could not complete is solved alone: its status is then the single
+    # solve's own message (with the contact and the time), word for word.
+    for j in run[~good]:
+        _solve_member(base, values, j, "exact", {}, status, metrics)
 
 
 def _loop(base, values, method, options, status, metrics, progress):
     """Members one by one, as ``lsc.solve`` would do each (re-validated by the loader, with the
     member's own solver settings)."""
-    from .api import resolve
-
     n = status.size
     bar = _progress(n, progress)
     try:
         for j in range(n):
             bar.update(1)
-            if status[j] != "ok":
-                continue
-            member = {p: float(v[j]) for p, v in values.items()}
-            try:
-                sc = base.with_values(member)
-                backend, opts = resolve(sc, method, {"n_samples": 2, **options})
-                r = solvers.run(HybridModel(sc), backend, opts)
-            except (SceneError, SimulationError) as e:
-                status[j] = f"{type(e).__name__}: {e}"
-                continue
-            for name in metrics:
-                metrics[name][j] = getattr(r, name)
+            if status[j] == "ok":
+                _solve_member(base, values, j, method, options, status, metrics)
     finally:
         bar.close()
+
+
+def _solve_member(base, values, j, method, options, status, metrics) -> None:
+    """Member ``j`` solved alone, as ``lsc.solve`` would (re-validated by the loader, with its
+    own solver settings): its metrics, or its error in ``status``."""
+    from .api import resolve
+
+    member = {p: float(v[j]) for p, v in values.items()}
+    try:
+        sc = base.with_values(member)
+        backend, opts = resolve(sc, method, {"n_samples": 2, **options})
+        r = solvers.run(HybridModel(sc), backend, opts)
+    except (SceneError, SimulationError) as e:
+        status[j] = f"{type(e).__name__}: {e}"
+        for name in metrics:
+            metrics[name][j] = np.nan
+        return
+    status[j] = "ok"
+    for name in metrics:
+        metrics[name][j] = getattr(r, name)
 
 
 def _have_diffrax() -> bool:
