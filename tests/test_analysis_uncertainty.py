@@ -210,3 +210,16 @@ def test_unknown_keyword_is_refused_by_name():
     assert e.value.path == "sed"
     assert str(e.value).startswith("sed: monte_carlo() got an unknown keyword 'sed'; it accepts "
                                    "seed, method, progress, percentiles and the solver options ")
+
+
+def test_bumper_failure_at_a_preloaded_tables_step_is_kept():
+    # the scene: 6000 lbf at first touch over a 5000 lbf failure force, 0.5 ft apart;
+    # every member fails when the gap closes, at 0.5 ft / closing speed (it used to be NaN)
+    scene = {"units": "US", "vehicles": [{"weight": 3000, "speed": 10}, {"weight": 2500, "speed": 0}],
+             "contacts": [{"loading": {"table": [[0, 6000], [0.5, 20000]]},
+                           "unloading": {"restitution": 0.4}, "gap": 0.5,
+                           "failure": {"force": 5000}}]}
+    mc = monte_carlo(scene, {"vehicles.0.speed": {"uniform": [8, 12]}}, 50, seed=0)
+    assert mc.sweep.method == "exact" and np.all(mc.sweep.ok)
+    speeds = mc.samples["vehicles.0.speed"]
+    np.testing.assert_allclose(mc.sweep.failure_time[:, 0], 0.5 / speeds, rtol=1e-14)
