@@ -330,18 +330,40 @@ def kelvin_zeta(e: float) -> float:
 
 def hunt_crossley_a(e: float) -> float:
     """``a = α v0`` of the Hunt–Crossley law for restitution ``e`` (``0 < e <= 1``, any
-    exponent): the positive root of ``a (1 + e) = ln[(1 + a) / (1 - a e)]``."""
+    exponent): the positive root of ``a (1 + e) = ln[(1 + a) / (1 - a e)]``, to a few ulps.
+
+    The relation is solved in the form that resolves it: for a small root (``e`` near 1,
+    ``a <= 1/2``) as the series :func:`_hc_series` of ``[ln(1 + a) - ln(1 - a e) - a (1 + e)] / a²``
+    (its leading terms cancel exactly); otherwise for ``L = -ln(1 - a e)``
+    (``a = -expm1(-L)/e``), in which the relation reads ``L = a (1 + e) - ln(1 + a)``: as
+    ``e → 0`` the root ``a`` tends to ``1/e`` with ``1 - a e ≈ e^{-1/e}`` (below 1e-300 at
+    ``e = 1e-3``), which ``a`` itself cannot resolve and ``L`` does; that root lies in
+    ``(0, (1 + e)/e]``."""
     from scipy.optimize import brentq
 
-    if e >= 1:
+    if not 0 < e <= 1:
+        raise ValueError(f"the Hunt-Crossley target restitution must be in (0, 1], got {e!r}")
+    if e == 1:
         return 0.0
-    f = lambda a: np.log1p(a) - np.log1p(-a * e) - a * (1 + e)  # noqa: E731
-    hi = 1.0 / e
-    b = hi * (1 - 1e-12)
-    lo = 1e-6 * b
-    while f(lo) >= 0:  # f < 0 near 0 (f ≈ -(1-e²) a²/2)
-        lo /= 10
-    return float(brentq(f, lo, b, xtol=1e-16, rtol=1e-15))
+    tol = dict(xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500)
+    if _hc_series(0.5, e) > 0:   # (it is -(1 - e²)/2 < 0 at a = 0)
+        return float(brentq(_hc_series, 0.0, 0.5, args=(e,), **tol))
+
+    def residual(L):   # > 0 below the root, < 0 above it
+        a = -np.expm1(-L) / e
+        return a * (1 + e) - np.log1p(a) - L
+
+    hi = (1 + e) / e
+    return float(-np.expm1(-brentq(residual, 0.25, hi, **tol)) / e)
+
+
+def _hc_series(a, e):
+    """``[ln(1 + a) - ln(1 - a e) - a (1 + e)] / a² = Σ_{n>=2} a^(n-2) [(-1)^(n+1) + e^n] / n``
+    for ``0 <= a <= 1/2`` (the even coefficients ``e^n - 1`` from ``expm1``, without
+    cancellation)."""
+    n = np.arange(2, 60)
+    coef = np.where(n % 2 == 1, 1.0 + e ** n, np.expm1(n * np.log1p(-(1.0 - e))))
+    return float(np.sum(a ** (n - 2) * coef / n))
 
 
 def brach_restitution(k, c1, c2, v0, mu):

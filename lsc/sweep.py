@@ -15,6 +15,8 @@ paths cannot set loops, so that each member uses its own settings.
 
 from __future__ import annotations
 
+import math
+import numbers
 import time
 from dataclasses import dataclass, field
 
@@ -26,11 +28,38 @@ from .result import METRICS
 from .scene import Restitution, Scene, UnloadingStiffness
 from . import solvers
 
-__all__ = ["sweep", "SweepResult", "CHUNK"]
+__all__ = ["sweep", "SweepResult", "CHUNK", "MAX_MEMBERS", "check_keywords"]
 
 #: Most members in one compiled ``diffrax`` call (a smaller sweep is padded to a power of two):
 #: small, because in a vmapped loop every member of a call waits for its slowest.
 CHUNK = 1024
+
+#: Most members of one sweep (a grid counts its product): the batch paths hold a few hundred
+#: bytes per member at once, so this bounds a sweep's memory to a few GiB. Split a larger study.
+MAX_MEMBERS = 10_000_000
+
+
+def check_keywords(function: str, options: dict, own) -> None:
+    """Refuse keywords of ``function`` that are neither its own (``own``) nor an option of some
+    backend (``rtol``, ``dt``, ...): a ``SceneError`` whose path is the keyword, listing what is
+    accepted. (Options that apply to another backend than the one used are refused by it.)"""
+    from .solvers import METHODS, options_of
+
+    solver = sorted(set().union(*(options_of(m) for m in METHODS)) - set(own))
+    for name in options:
+        if name not in solver:
+            raise SceneError(str(name), f"{function}() got an unknown keyword {name!r}; it "
+                             f"accepts {', '.join(own)} and the solver options "
+                             f"{', '.join(solver)}")
+
+
+def check_members(n: int, what: str) -> None:
+    """Refuse a study of more than :data:`MAX_MEMBERS` members up front (``SceneError`` on
+    ``what``, the argument that sets ``n``)."""
+    if n > MAX_MEMBERS:
+        raise SceneError(what, f"{n} members are more than the {MAX_MEMBERS} one study solves "
+                               "(every member's metrics are held in memory at once): split it "
+                               "into smaller ones")
 
 
 @dataclass(eq=False)
@@ -121,11 +150,9 @@ def _axes(scene: Scene, params: dict, grid: bool):
     raw = {}
     for path, vals in params.items():
         _check_path(scene, str(path))
-        arr = np.asarray(vals, dtype=object if _has_text(vals) else float)
-        if arr.ndim != 1 or arr.size == 0:
-            raise SceneError(str(path), "sweep values must be a non-empty 1-D list or array")
-        raw[path] = _to_numbers(scene, path, arr)
+        raw[path] = _to_numbers(scene, path, _sweep_values(str(path), vals))
     if grid:
+        check_members(math.prod(a.size for a in raw.values()), "params")
         mesh = np.meshgrid(*raw.values(), indexing="ij")
         shape = mesh[0].shape
         return {p: m.reshape(-1) for p, m in zip(raw, mesh)}, shape
@@ -146,10 +173,32 @@ def _check_path(scene: Scene, path: str) -> None:
             raise SceneError(path, str(e.message if hasattr(e, "message") else e)) from None
 
 
-def _has_text(vals) -> bool:
-    if isinstance(vals, np.ndarray) and vals.dtype.kind in "fiub":
-        return False
-    return any(isinstance(v, str) for v in np.asarray(vals, dtype=object).reshape(-1))
+def _sweep_values(path: str, vals) -> np.ndarray:
+    """The values of one swept path as a 1-D array: floats, or objects (floats and strings with
+    units). A generator or iterator is refused (it may not end, and it is used up once): give a
+    list, a tuple or an array; so is a boolean (not a number) and anything but a real number or a
+    string."""
+    if (isinstance(vals, (str, bytes, dict, set, frozenset)) or hasattr(vals, "__next__")
+            or not (hasattr(vals, "__len__") or hasattr(vals, "__array__"))):
+        raise SceneError(path, "sweep values must be a list, tuple or 1-D array of numbers (or "
+                               f"strings with units), got a {type(vals).__name__}"
+                         + (" (make it a list first: list(...))" if hasattr(vals, "__next__")
+                            else ""))
+    if isinstance(vals, np.ndarray) and vals.dtype.kind in "iuf":
+        arr = vals
+    else:
+        arr = np.asarray(vals, dtype=object)
+        if arr.ndim == 1:
+            for v in arr:
+                if isinstance(v, (bool, np.bool_)) or not isinstance(v, (str, numbers.Real)):
+                    raise SceneError(path, "sweep values must be numbers (or strings with "
+                                           f"units), got {v!r}")
+            if not any(isinstance(v, str) for v in arr):
+                arr = arr.astype(float)
+    if arr.ndim != 1 or arr.size == 0:
+        raise SceneError(path, "sweep values must be a non-empty 1-D list or array")
+    check_members(arr.size, path)
+    return arr
 
 
 def _to_numbers(scene: Scene, path: str, arr: np.ndarray) -> np.ndarray:
@@ -378,10 +427,15 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     SweepResult
     """
     start = time.perf_counter()
+    check_keywords("sweep", options, ("method", "grid", "progress", "chunk", "workers"))
     if workers is None:
         import os
 
         workers = os.cpu_count() or 1
+    _check_count("chunk", chunk)
+    _check_count("workers", workers)
+    if not isinstance(grid, (bool, np.bool_)):
+        raise SceneError("grid", f"grid must be True or False, got {grid!r}")
     base = Scene.load(scene)
     values, shape = _axes(base, params, grid)
     n = int(np.prod(shape))
@@ -410,6 +464,13 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     wall = time.perf_counter() - start
     return SweepResult(base, values, metrics, status, backend, tuple(shape),
                        {"wall_time": wall, "members": n, "failed": int(np.sum(status != "ok"))})
+
+
+def _check_count(name: str, value) -> None:
+    """A positive whole number of ``sweep`` (``chunk``, ``workers``), or a ``SceneError``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+            or value < 1:
+        raise SceneError(name, f"{name} must be a positive integer, got {value!r}")
 
 
 def _closed_form_batch(base, values, setters, ok, metrics):
@@ -475,34 +536,44 @@ def _exact_batch(base, values, setters, ok, metrics, status):
         if metrics[name].ndim == 2 and arr.ndim == 1:
             arr = arr[:, None]
         metrics[name][run[good]] = arr[good]
-    for j, code in zip(run[~good], out["status"][~good]):
-        status[j] = f"SimulationError: {exact.BATCH_STATUS[int(code)]}"
+    # A member the batch could not complete is solved alone: its status is then the single
+    # solve's own message (with the contact and the time), word for word.
+    for j in run[~good]:
+        _solve_member(base, values, j, "exact", {}, status, metrics)
 
 
 def _loop(base, values, method, options, status, metrics, progress):
     """Members one by one, as ``lsc.solve`` would do each (re-validated by the loader, with the
     member's own solver settings)."""
-    from .api import resolve
-
     n = status.size
     bar = _progress(n, progress)
     try:
         for j in range(n):
             bar.update(1)
-            if status[j] != "ok":
-                continue
-            member = {p: float(v[j]) for p, v in values.items()}
-            try:
-                sc = base.with_values(member)
-                backend, opts = resolve(sc, method, {"n_samples": 2, **options})
-                r = solvers.run(HybridModel(sc), backend, opts)
-            except (SceneError, SimulationError) as e:
-                status[j] = f"{type(e).__name__}: {e}"
-                continue
-            for name in metrics:
-                metrics[name][j] = getattr(r, name)
+            if status[j] == "ok":
+                _solve_member(base, values, j, method, options, status, metrics)
     finally:
         bar.close()
+
+
+def _solve_member(base, values, j, method, options, status, metrics) -> None:
+    """Member ``j`` solved alone, as ``lsc.solve`` would (re-validated by the loader, with its
+    own solver settings): its metrics, or its error in ``status``."""
+    from .api import resolve
+
+    member = {p: float(v[j]) for p, v in values.items()}
+    try:
+        sc = base.with_values(member)
+        backend, opts = resolve(sc, method, {"n_samples": 2, **options})
+        r = solvers.run(HybridModel(sc), backend, opts)
+    except (SceneError, SimulationError) as e:
+        status[j] = f"{type(e).__name__}: {e}"
+        for name in metrics:
+            metrics[name][j] = np.nan
+        return
+    status[j] = "ok"
+    for name in metrics:
+        metrics[name][j] = getattr(r, name)
 
 
 def _have_diffrax() -> bool:

@@ -124,3 +124,37 @@ def test_peak_force_helper_and_summary():
     assert "4.99166" in text and "conservative bound" in text and "6 ft/s" in text
     d = b.to_dict()
     assert d["bound_speed"] == 6.0 and len(d["rows"]) == 3
+
+
+SOLVER_OPTIONS = "atol, dt, first_step, integrator, max_events, max_steps, n_samples, t_end"
+
+
+def test_unknown_keyword_is_refused_by_name():
+    # (it used to be passed on to lsc.solve, where method "auto" dropped it silently)
+    with pytest.raises(lsc.SceneError) as e:
+        max_closing_speed(table3_scene(), 5000.0, rtoll=1e-13)
+    assert e.value.path == "rtoll"
+    assert str(e.value) == (
+        "rtoll: max_closing_speed() got an unknown keyword 'rtoll'; it accepts failure_force, "
+        "contact, speed_path, method, step, margin_steps, bracket, xtol, rtol, maxiter and the "
+        f"solver options {SOLVER_OPTIONS}")   # (rtol is Brent's here)
+    with pytest.raises(lsc.SceneError, match="peak_force\\(\\) got an unknown keyword 'spped'"):
+        peak_force(table3_scene(), 5.0, spped=1)
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"xtol": -1}, "xtol: xtol must be a positive finite number, got -1"),
+    ({"xtol": float("nan")}, "xtol: xtol must be a positive finite number, got nan"),
+    ({"maxiter": 0}, "maxiter: maxiter must be a positive integer, got 0"),
+    ({"maxiter": 2.5}, "maxiter: maxiter must be a positive integer, got 2.5"),
+    ({"rtol": 1e-17}, "rtol: rtol must be a finite number >= 8.88178e-16 (4 machine epsilons), "
+                      "got 1e-17"),
+    ({"margin_steps": 1e9}, "margin_steps: must be a whole number from 0 to 1000 (one solve "
+                            "each), got 1000000000.0"),
+    ({"margin_steps": -1}, "margin_steps: must be a whole number from 0 to 1000 (one solve "
+                           "each), got -1"),
+])
+def test_bad_search_settings_are_refused(kw, message):
+    with pytest.raises(lsc.SceneError) as e:
+        max_closing_speed(table3_scene(), 5000.0, **kw)
+    assert str(e.value) == message

@@ -99,3 +99,18 @@ def test_rejects_curves_that_do_not_end():
         calibrate_force_scale(sc)
     with pytest.raises(lsc.SceneError, match="contact"):
         calibrate_force_scale(scene(5.0), contact=2)
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"maxiter": -1}, "maxiter: maxiter must be a positive integer, got -1"),
+    ({"xtol": 0.0}, "xtol: xtol must be a positive finite number, got 0.0"),
+    ({"rtol": 0.0}, "rtol: rtol must be a finite number >= 8.88178e-16 (4 machine epsilons), "
+                    "got 0.0"),
+    ({"rtoll": 1e-12}, "rtoll: calibrate_force_scale() got an unknown keyword 'rtoll'; it accepts "
+                       "contact, method, xtol, rtol, maxiter and the solver options atol, dt, "
+                       "first_step, integrator, max_events, max_steps, n_samples, t_end"),
+])
+def test_bad_search_settings_and_unknown_keywords_are_refused(kw, message):
+    with pytest.raises(lsc.SceneError) as e:
+        calibrate_force_scale(scene(speed_for_factor(1.16)), **kw)
+    assert str(e.value) == message

@@ -295,3 +295,17 @@ def test_restitution_to_coefficient_derivatives(e):
         else:
             want = (conv(e + h) - conv(e - h)) / (2 * h)
         assert float(t["contacts"][0][key]) == pytest.approx(want, rel=1e-6)
+
+
+@pytest.mark.parametrize("step", [0, -1e-3, 1.5, float("nan"), True, "1e-3"])
+def test_bad_finite_difference_step_is_refused(step):
+    # (step 0 divided by zero: derivatives of inf and nan, without a word)
+    with pytest.raises(lsc.SceneError) as e:
+        sensitivity(paper_scene(), method="finite-difference", step=step)
+    assert str(e.value) == ("step: step must be a number in (0, 1) (relative to each "
+                            f"parameter's value), got {step!r}")
+
+
+def test_unknown_keyword_is_a_type_error_naming_it():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'rtoll'"):
+        sensitivity(paper_scene(), rtoll=1e-13)

@@ -183,3 +183,43 @@ def test_function_named_as_module_attribute(tmp_path, monkeypatch):
     assert s["contacts.0.unloading.restitution"] == pytest.approx(0.7 - 0.05 * s["vehicles.0.speed"])
     with pytest.raises(lsc.SceneError, match="cannot import"):
         sample(paper_scene(), {"contacts.0.unloading.restitution": {"function": "no_such_mod:f"}}, 5)
+
+
+UNIFORM = {"vehicles.0.speed": {"uniform": [5, 10]}}
+
+
+@pytest.mark.parametrize("seed", ["x", -1, 1.5, True])
+def test_bad_seed_is_refused(seed):
+    with pytest.raises(lsc.SceneError) as e:
+        monte_carlo(paper_scene(), UNIFORM, 10, seed=seed)
+    assert str(e.value) == ("seed: the seed must be a whole number >= 0 (or None: a fresh one "
+                            f"each run), got {seed!r}")
+
+
+def test_too_many_samples_are_refused_up_front():
+    with pytest.raises(lsc.SceneError) as e:
+        monte_carlo(paper_scene(), UNIFORM, 10 ** 9, seed=0)
+    assert str(e.value) == ("n: 1000000000 members are more than the 10000000 one study solves "
+                            "(every member's metrics are held in memory at once): split it into "
+                            "smaller ones")
+
+
+def test_unknown_keyword_is_refused_by_name():
+    with pytest.raises(lsc.SceneError) as e:
+        monte_carlo(paper_scene(), UNIFORM, 10, sed=1)
+    assert e.value.path == "sed"
+    assert str(e.value).startswith("sed: monte_carlo() got an unknown keyword 'sed'; it accepts "
+                                   "seed, method, progress, percentiles and the solver options ")
+
+
+def test_bumper_failure_at_a_preloaded_tables_step_is_kept():
+    # the scene: 6000 lbf at first touch over a 5000 lbf failure force, 0.5 ft apart;
+    # every member fails when the gap closes, at 0.5 ft / closing speed (it used to be NaN)
+    scene = {"units": "US", "vehicles": [{"weight": 3000, "speed": 10}, {"weight": 2500, "speed": 0}],
+             "contacts": [{"loading": {"table": [[0, 6000], [0.5, 20000]]},
+                           "unloading": {"restitution": 0.4}, "gap": 0.5,
+                           "failure": {"force": 5000}}]}
+    mc = monte_carlo(scene, {"vehicles.0.speed": {"uniform": [8, 12]}}, 50, seed=0)
+    assert mc.sweep.method == "exact" and np.all(mc.sweep.ok)
+    speeds = mc.samples["vehicles.0.speed"]
+    np.testing.assert_allclose(mc.sweep.failure_time[:, 0], 0.5 / speeds, rtol=1e-14)

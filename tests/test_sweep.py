@@ -291,3 +291,55 @@ def test_braked_scene_sweep_equals_single_solves():
     one = lsc.solve(lsc.Scene.load(sc).with_values({"vehicles.0.speed": speeds[0]}))
     assert len(one.impacts) >= 2 and one.delta_v[1] > 0
     assert one.delta_v_total[1] == 0.0
+
+
+SPEED = "vehicles.0.speed"
+
+
+@pytest.mark.parametrize("values, message", [
+    ([True, False], "sweep values must be numbers (or strings with units), got True"),
+    (np.array([1.0, 2.0]) > 1.5, "sweep values must be numbers (or strings with units), got False"),
+    ([5.0, None], "sweep values must be numbers (or strings with units), got None"),
+    ([5.0, 1j], "sweep values must be numbers (or strings with units), got 1j"),
+    ((v for v in [5.0, 6.0]), "sweep values must be a list, tuple or 1-D array of numbers (or "
+                              "strings with units), got a generator (make it a list first: "
+                              "list(...))"),
+    ({5.0, 6.0}, "sweep values must be a list, tuple or 1-D array of numbers (or strings with "
+                 "units), got a set"),
+    (5.0, "sweep values must be a list, tuple or 1-D array of numbers (or strings with units), "
+          "got a float"),
+])
+def test_sweep_values_that_are_not_numbers_are_refused(values, message):
+    # (booleans used to be swept as 1 and 0, None as NaN; a generator raised a TypeError)
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.sweep(PAPER, {SPEED: values})
+    assert e.value.path == SPEED and str(e.value) == f"{SPEED}: {message}"
+
+
+def test_sweep_accepts_lists_tuples_ranges_and_numpy_numbers():
+    for values in ([4, 6.0], (4, 6.0), range(4, 7, 2), np.array([4, 6]), [np.float32(4), "6 ft/s"]):
+        s = lsc.sweep(PAPER, {SPEED: values})
+        assert list(s.params[SPEED]) == [4.0, 6.0] and np.all(s.ok)
+
+
+def test_huge_grid_is_refused_up_front():
+    axis = np.linspace(1.0, 2.0, 100_000)
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.sweep(PAPER, {SPEED: axis, "contacts.0.unloading.restitution": axis / 2}, grid=True)
+    assert str(e.value) == ("params: 10000000000 members are more than the 10000000 one study "
+                            "solves (every member's metrics are held in memory at once): split "
+                            "it into smaller ones")
+
+
+def test_unknown_keyword_and_bad_sweep_settings_are_refused():
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.sweep(PAPER, {SPEED: [4.0]}, rtoll=1e-13)
+    assert str(e.value) == ("rtoll: sweep() got an unknown keyword 'rtoll'; it accepts method, "
+                            "grid, progress, chunk, workers and the solver options atol, dt, "
+                            "first_step, integrator, max_events, max_steps, n_samples, rtol, t_end")
+    for kw, message in [({"chunk": 0}, "chunk: chunk must be a positive integer, got 0"),
+                        ({"workers": 1.5}, "workers: workers must be a positive integer, got 1.5"),
+                        ({"grid": 1}, "grid: grid must be True or False, got 1")]:
+        with pytest.raises(lsc.SceneError) as e:
+            lsc.sweep(PAPER, {SPEED: [4.0]}, **kw)
+        assert str(e.value) == message

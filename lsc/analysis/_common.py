@@ -7,7 +7,9 @@ import numpy as np
 from ..errors import SceneError
 from ..units import to_system
 
-__all__ = ["quantity", "path_kind", "split_path", "check_contact"]
+__all__ = ["quantity", "path_kind", "split_path", "check_contact", "check_brent", "check_keywords"]
+
+from ..sweep import check_keywords  # noqa: E402  (one check for sweep and every analysis)
 
 # The kind of quantity (a key of lsc.scene.UNITS) held at a dotted path, by its last names.
 _KINDS = {
@@ -73,3 +75,19 @@ def read_path(scene, path: str) -> float:
         except (KeyError, IndexError, ValueError, TypeError):
             raise SceneError(path, "no such field in the scene") from None
     return path_quantity(node, scene, path)
+
+
+def check_brent(xtol, rtol, maxiter) -> None:
+    """Brent's method settings of an analysis: ``xtol`` a positive finite number [the searched
+    quantity's unit], ``rtol`` finite and at least 4 machine epsilons (Brent's own floor),
+    ``maxiter`` a positive integer; a ``SceneError`` naming the argument otherwise."""
+    floor = 4 * np.finfo(float).eps
+    if isinstance(xtol, bool) or not isinstance(xtol, (int, float, np.number)) \
+            or not (np.isfinite(xtol) and xtol > 0):
+        raise SceneError("xtol", f"xtol must be a positive finite number, got {xtol!r}")
+    if isinstance(rtol, bool) or not isinstance(rtol, (int, float, np.number)) \
+            or not (np.isfinite(rtol) and rtol >= floor):
+        raise SceneError("rtol", f"rtol must be a finite number >= {floor:.6g} (4 machine "
+                                 f"epsilons), got {rtol!r}")
+    if isinstance(maxiter, bool) or not isinstance(maxiter, (int, np.integer)) or maxiter < 1:
+        raise SceneError("maxiter", f"maxiter must be a positive integer, got {maxiter!r}")

@@ -19,7 +19,10 @@ import numpy as np
 from ..api import solve
 from ..errors import SceneError, SimulationError
 from ..scene import Scene
-from ._common import check_contact, quantity, read_path, split_path
+from ._common import check_brent, check_contact, check_keywords, quantity, read_path, split_path
+
+#: Most whole steps above the root ``max_closing_speed`` reports (each is one more solve).
+MAX_MARGIN_STEPS = 1000
 
 __all__ = ["max_closing_speed", "Bound", "peak_force"]
 
@@ -117,6 +120,7 @@ class Bound:
 def peak_force(scene, speed: float, *, contact: int = 0, speed_path: str = "vehicles.0.speed",
                method: str = "auto", **options) -> float:
     """Peak force of ``contact`` [force] with ``speed_path`` set to ``speed`` [velocity]."""
+    check_keywords("peak_force", options, ("contact", "speed_path", "method"))
     sc = Scene.load(scene).with_values({speed_path: float(speed)})
     return float(solve(sc, method=method, **{"n_samples": 2, **options}).peak_force[contact])
 
@@ -160,6 +164,10 @@ def max_closing_speed(scene, failure_force=None, *, contact: int = 0,
     """
     from scipy.optimize import brentq
 
+    check_keywords("max_closing_speed", options,
+                   ("failure_force", "contact", "speed_path", "method", "step", "margin_steps",
+                    "bracket", "xtol", "rtol", "maxiter"))
+    check_brent(xtol, rtol, maxiter)
     base = Scene.load(scene)
     k = check_contact(base, contact)
     if failure_force is None:
@@ -175,8 +183,10 @@ def max_closing_speed(scene, failure_force=None, *, contact: int = 0,
     dv = quantity(step, "velocity", base, "step")
     if not dv > 0:
         raise SceneError("step", f"must be a positive speed, got {dv:g}")
-    if isinstance(margin_steps, bool) or int(margin_steps) != margin_steps or margin_steps < 0:
-        raise SceneError("margin_steps", f"must be a whole number >= 0, got {margin_steps!r}")
+    if isinstance(margin_steps, bool) or not isinstance(margin_steps, (int, float, np.number)) \
+            or not (0 <= margin_steps <= MAX_MARGIN_STEPS) or int(margin_steps) != margin_steps:
+        raise SceneError("margin_steps", f"must be a whole number from 0 to {MAX_MARGIN_STEPS} "
+                                         f"(one solve each), got {margin_steps!r}")
     x0 = read_path(base, speed_path)
     ref, direct = _zero_force_speed(base, speed_path, k)
     evals = [0]

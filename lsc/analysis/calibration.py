@@ -24,7 +24,7 @@ from ..api import solve
 from ..contact import STATUS
 from ..errors import SceneError, SimulationError
 from ..scene import Hysteresis, Scene
-from ._common import check_contact, quantity
+from ._common import check_brent, check_contact, check_keywords, quantity
 
 __all__ = ["calibrate_force_scale", "energy_force_scale", "Calibration"]
 
@@ -115,6 +115,9 @@ def calibrate_force_scale(scene, *, contact: int = 0, method: str = "auto", xtol
     """
     from scipy.optimize import brentq
 
+    check_keywords("calibrate_force_scale", options,
+                   ("contact", "method", "xtol", "rtol", "maxiter"))
+    check_brent(xtol, rtol, maxiter)
     base = Scene.load(scene)
     k = check_contact(base, contact)
     curve, s0 = _table(base, k)

@@ -675,6 +675,10 @@ def sensitivity(scene, params=None, *, metrics=DEFAULT_METRICS, method: str = "d
     if method not in METHODS:
         raise SceneError("method", f"unknown sensitivity method {method!r}; accepted: "
                          + ", ".join(repr(m) for m in METHODS))
+    if isinstance(step, bool) or not isinstance(step, (int, float, np.number)) \
+            or not 0 < step < 1:
+        raise SceneError("step", "step must be a number in (0, 1) (relative to each "
+                                 f"parameter's value), got {step!r}")
     if isinstance(metrics, str):
         metrics = (metrics,)
     metrics = tuple(metrics)

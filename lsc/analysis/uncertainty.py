@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import SceneError
 from ..result import METRICS as RESULT_METRICS
 from ..scene import Scene
-from ._common import path_quantity
+from ._common import check_keywords, path_quantity
 
 __all__ = ["monte_carlo", "sample", "MonteCarlo", "flatten_distributions", "METRICS"]
 
@@ -222,9 +222,16 @@ def sample(scene, distributions: dict, n: int, *, seed=None) -> dict:
     Paths are drawn in the dict's order from one ``numpy.random.Generator(PCG64(seed))``; the
     ``function`` specs are evaluated after every other one, in their order.
     """
+    from ..sweep import check_members
+
     base = Scene.load(scene)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise SceneError("n", f"the number of samples must be a positive integer, got {n!r}")
+    check_members(int(n), "n")
+    if seed is not None and (isinstance(seed, (bool, np.bool_))
+                             or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise SceneError("seed", "the seed must be a whole number >= 0 (or None: a fresh one "
+                                 f"each run), got {seed!r}")
     rng = np.random.default_rng(seed)
     specs = {p: _spec(p, s) for p, s in flatten_distributions(distributions).items()}
     out: dict[str, np.ndarray] = {}
@@ -339,6 +346,7 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, method: str = 
     """
     from ..sweep import sweep
 
+    check_keywords("monte_carlo", options, ("seed", "method", "progress", "percentiles"))
     base = Scene.load(scene)
     q = tuple(float(x) for x in np.atleast_1d(percentiles))
     if not q or any(not 0 <= x <= 100 for x in q):

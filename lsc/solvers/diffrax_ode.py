@@ -816,7 +816,9 @@ class _Core:
             "delta_v": vf - v0, "v_final": vf, "duration": duration,
             "peak_acceleration": c["peak_acc"], "peak_force": c["peak_force"],
             "max_deformation": rec["dmax"], "permanent_deformation": rec["dperm"],
-            "restitution": (vf[1:] - vf[:-1]) / (v0[:-1] - v0[1:]),
+            # (as Result.build: NaN, not ±inf, for a contact that was not closing at t = 0)
+            "restitution": (vf[1:] - vf[:-1]) / jnp.where(v0[:-1] > v0[1:], v0[:-1] - v0[1:],
+                                                          jnp.nan),
             "restitution_energy": jnp.sqrt(rec["er"] / rec["ec"]),
             "energy_absorbed": rec["ec"], "energy_returned": rec["er"],
             "contact_time": ct, "separation_time": st, "failure_time": c["failure_time"]}

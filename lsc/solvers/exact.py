@@ -986,6 +986,7 @@ def solve_batch(params: dict, *, max_events: int = 10_000) -> dict:
         w["nev"] = touching.astype(int)
         w["tc"] = np.where(touching, 0.0, np.nan)
         w["status"] = st["status"].astype(int)
+        _fail_on_entry(law, w["x1"] - w["x2"] - w["gap"], st, w)
         while True:
             # members whose crash is over (or cannot go on) leave the batch with their record
             over = (st["mode"] == MODE_OPEN) & (w["v1"] - w["v2"] <= 1e-12 * w["vscale"])
@@ -1057,7 +1058,19 @@ def solve_batch(params: dict, *, max_events: int = 10_000) -> dict:
             w["nev"] = w["nev"] + ~bad
             w["status"] = np.where(bad, NO_EVENT, new["status"]).astype(int)
             st = new
+            _fail_on_entry(law, D, st, w)
     return _batch_metrics(P, out, out_status, out_events)
+
+
+def _fail_on_entry(law, D, st, w) -> None:
+    """Bumper failure at a force *step*: where a segment starts above the failure force (a
+    preloaded table's force at first touch, or at t = 0), the bumper failed at that instant,
+    as a single solve reports it; the crossing event (:func:`_force_rises`) sees only a force
+    that rises through the level inside a segment. Updates ``w["tf"]``, ``w["ff"]``."""
+    failed = (law.force(D, 0.0, st) > w["ff"]) & np.isnan(w["tf"]) & (st["mode"] != MODE_OPEN)
+    if failed.any():
+        w["tf"] = np.where(failed, w["t"], w["tf"])
+        w["ff"] = np.where(failed, np.inf, w["ff"])
 
 
 def _batch_metrics(P, out, status, events) -> dict:

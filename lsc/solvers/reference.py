@@ -16,11 +16,21 @@ reading reproduces every printed digit of Table 1 (e.g. ``V1* = -0.082`` at ``Δ
 ``V_i,j`` would give -0.083); it is one more first-order error term, and it vanishes with ``Δt``. ``Function`` is the shared IF-D law of :mod:`lsc.contact` (its segment transitions
 included); the rebound branch starts from the last loading point ``(D, F)`` before the switch.
 The method is first order: its error shrinks in proportion to ``Δt``.
+
+Accuracy and memory. A run whose ``Δt`` is coarser than 1/100 of the contact time (``π/(2ω)``
+of the stiffest loading piece the run reached, or its own compression time if shorter) is
+returned with a warning in ``stats["warnings"]`` (its ΔV is then off by about ``Δt/T`` of the
+closing speed). Every step of a run is kept (for the series and the exact peaks); a ``Δt`` that
+would need more than :data:`MAX_STEPS` steps for the pulse (its length taken from the exact
+piecewise solution) is refused up front with a :class:`~lsc.errors.SceneError` on
+``solver.dt``.
 """
 
 from __future__ import annotations
 
+import math
 import time
+from array import array
 
 import numpy as np
 
@@ -29,7 +39,14 @@ from ..errors import SceneError, SimulationError
 from ..result import Event, Result
 from ..scene import Hysteresis
 
-__all__ = ["why_not", "solve"]
+__all__ = ["why_not", "solve", "MAX_STEPS", "STEPS_PER_CONTACT_TIME"]
+
+#: Most steps one run may take: every step is kept (9 float64 values, about 130 bytes with the
+#: arrays built from them at the end), so this bounds a run's memory to about 2 GiB.
+MAX_STEPS = 2 ** 24
+
+#: A run with fewer steps than this per contact time gets a warning in ``stats["warnings"]``.
+STEPS_PER_CONTACT_TIME = 100
 
 
 def why_not(scene) -> str | None:
@@ -66,6 +83,8 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
     if not V1 > V2:
         raise SceneError("vehicles[0].speed", "the paper's algorithm needs the rear vehicle "
                          "(vehicle 1) faster than the front one at t = 0")
+    _check_steps(model, dt)
+    max_steps = min(int(max_steps), MAX_STEPS)
     start = time.perf_counter()
 
     def settle(D, st):
@@ -89,8 +108,8 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
     # j = 1
     t = 0.0
     X1, X2, A1, A2 = 0.0, 0.0, 0.0, 0.0
-    ts, x1s, x2s, v1s, v2s, a1s, a2s, Ds, Fs = ([0.0], [0.0], [0.0], [V1], [V2], [0.0], [0.0],
-                                                  [0.0], [0.0])
+    ts, x1s, x2s, v1s, v2s, a1s, a2s, Ds, Fs = (array("d", [v]) for v in
+                                                (0.0, 0.0, 0.0, V1, V2, 0.0, 0.0, 0.0, 0.0))
     # j = 2: the vehicles move through the first step at their initial velocities
     X1, X2 = X1 + V1 * dt, X2 + V2 * dt
     j = 2
@@ -131,12 +150,12 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
         X1, X2 = X1 + V1 * dt + 0.5 * A1 * dt * dt, X2 + V2 * dt + 0.5 * A2 * dt * dt
         V1, V2 = V1n, V2n
     wall = time.perf_counter() - start
-    t_arr = np.array(ts)
+    t_arr = np.frombuffer(ts)
     keep = _thin(t_arr.size, n_samples)
-    x = np.stack([x1s, x2s], axis=1)
-    v = np.stack([v1s, v2s], axis=1)
-    a = np.stack([a1s, a2s], axis=1)
-    Darr, Farr = np.array(Ds), np.array(Fs)
+    x = np.stack([np.frombuffer(x1s), np.frombuffer(x2s)], axis=1)
+    v = np.stack([np.frombuffer(v1s), np.frombuffer(v2s)], axis=1)
+    a = np.stack([np.frombuffer(a1s), np.frombuffer(a2s)], axis=1)
+    Darr, Farr = np.frombuffer(Ds), np.frombuffer(Fs)
     if t_end is not None and t_end > t:
         # after separation nothing acts: the vehicles coast
         te = np.array([t_end])
@@ -150,6 +169,9 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
     rec = [{"dmax": st["dmax"], "fmax": st["fmax"], "dperm": st["dperm"], "ec": st["ec"],
             "er": st["er"]}]
     stats = {"steps": j - 1, "rhs_evaluations": j - 1, "segments": 1, "wall_time": wall}
+    warning = _coarse_step_warning(law, p, M1, M2, st, events, dt)
+    if warning:
+        stats["warnings"] = [warning]
     r = Result.build(scene, t=t_arr[keep], x=x[keep], v=v[keep], a=a[keep],
                      deformation=Darr[keep, None], force=Farr[keep, None], events=events,
                      contacts=rec, v_final=np.array([V1_last, V2_last]), method="reference",
@@ -159,6 +181,59 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
     imp = r.impacts[0]
     r._raise_peaks([(imp.t_start, imp.t_end, [Farr.max()], a[ia, [0, 1]])])
     return r
+
+
+def _check_steps(model, dt: float) -> None:
+    """Refuse (``SceneError`` on ``solver.dt``) a ``dt`` whose run would need more than
+    :data:`MAX_STEPS` steps for the pulse, the length of the exact piecewise solution (a
+    scene whose exact solve fails is left to the run itself to report)."""
+    from .exact import solve as exact_solve
+
+    try:
+        pulse = float(exact_solve(model, n_samples=2).duration)
+    except (SimulationError, SceneError):
+        return
+    if not pulse / dt > MAX_STEPS:
+        return
+    raise SceneError("solver.dt", f"dt = {dt:g} s would take about {pulse / dt:.3g} steps for "
+                     f"this pulse ({pulse:.6g} s), more than the {MAX_STEPS} steps a reference "
+                     "run may keep in memory; use dt >= "
+                     f"{_two_digits(pulse / MAX_STEPS, up=True)} s, or an exact method ('auto')")
+
+
+def _two_digits(x: float, up: bool) -> str:
+    """``x`` > 0 rounded up (or down) to 2 significant digits, as text."""
+    e = math.floor(math.log10(x)) - 1
+    return f"{(math.ceil if up else math.floor)(x / 10 ** e) * 10 ** e:.2g}"
+
+
+def contact_time(law, p, M1: float, M2: float, st: dict, events) -> float:
+    """The contact time [s] a reference run's step is measured against: ``π/(2ω)``,
+    ``ω = √(k/μ)`` for the stiffest loading piece up to the run's maximum deformation, or the
+    run's own compression time (contact to the common velocity) where that is shorter."""
+    mu = M1 * M2 / (M1 + M2)
+    n = law.n_load
+    ld, ls = np.asarray(p["ld"], float)[:n], np.asarray(p["ls"], float)[:n]
+    reached = ls[(ld < st["dmax"]) | (np.arange(n) == 0)]
+    k = float(np.max(reached, initial=0.0))
+    t_c = 0.5 * math.pi * math.sqrt(mu / k) if k > 0 else math.inf
+    for ev in events:
+        if ev.kind == "max_deformation":
+            t_c = min(t_c, ev.time)
+            break
+    return t_c
+
+
+def _coarse_step_warning(law, p, M1, M2, st, events, dt: float) -> str | None:
+    """The warning for a step coarser than 1/:data:`STEPS_PER_CONTACT_TIME` of the contact
+    time (``None`` if it is not)."""
+    t_c = contact_time(law, p, M1, M2, st, events)
+    if not dt * STEPS_PER_CONTACT_TIME > t_c:
+        return None
+    return (f"reference: dt = {dt:g} s is coarser than 1/{STEPS_PER_CONTACT_TIME} of the "
+            f"contact time ({t_c:.4g} s, {t_c / dt:.3g} steps): the paper's first-order algorithm "
+            f"is then off by about dt/T of the closing speed; use dt <= "
+            f"{_two_digits(t_c / STEPS_PER_CONTACT_TIME, up=False)} s, or an exact method ('auto')")
 
 
 def _py(st: dict) -> dict:

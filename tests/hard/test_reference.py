@@ -9,6 +9,7 @@ between, mass ratios 1:1000 to 1000:1, stiffness 1e2 to 1e9 lbf/ft and closing s
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -94,3 +95,59 @@ def test_reference_converges_on_tables(scene):
     # (breakpoints crossed between steps make the error of one run move about; over three
     # halvings it falls by about 8)
     assert err[-1] <= 0.3 * err[0] + 1e-12, err
+
+
+# --------------------------------------------------------------------------- accuracy warning
+def _stiff_scene(k):
+    return {"units": "US", "vehicles": [{"weight": 3500, "speed": 10}, {"weight": 3500, "speed": 0}],
+            "contacts": [{"loading": {"stiffness": k}, "unloading": {"restitution": 0.4}}]}
+
+
+def test_coarse_step_against_the_contact_time_is_warned():
+    # k = 1e9 lbf/ft: the contact time pi/(2 omega) is 0.37 ms, so the default dt = 1e-5 s is
+    # only 37 steps of it, and the paper's algorithm gives |dV| = 7.12 against the exact 7.00
+    scene = _stiff_scene(1e9)
+    exact = lsc.solve(scene, method="closed-form")
+    r = lsc.solve(scene, method="reference")
+    assert abs(r.delta_v[1] - exact.delta_v[1]) > 0.1   # the silent inaccuracy of the issue
+    mu = 3500 / 32.174 / 2
+    t_c = 0.5 * np.pi * np.sqrt(mu / 1e9)
+    assert r.stats["warnings"] == [
+        f"reference: dt = 1e-05 s is coarser than 1/100 of the contact time ({t_c:.4g} s, "
+        f"{t_c / 1e-5:.3g} steps): the paper's first-order algorithm is then off by about dt/T "
+        "of the closing speed; use dt <= 3.6e-06 s, or an exact method ('auto')"]
+
+
+def test_fine_step_has_no_warning_and_the_advised_step_is_fine():
+    scene = _stiff_scene(1e9)
+    r = lsc.solve(scene, method="reference", dt=3.6e-6)
+    assert "warnings" not in r.stats
+    assert "warnings" not in lsc.solve(_stiff_scene(24000), method="reference").stats
+
+
+def test_warning_uses_the_stiffest_loading_piece_reached():
+    # a table whose last piece (never reached at 1 ft/s) is 1e4 times stiffer than the first:
+    # the contact time is that of the first piece, and dt = 1e-4 s resolves it
+    scene = _stiff_scene(1.0)
+    scene["vehicles"][0]["speed"] = 1.0
+    scene["contacts"][0]["loading"] = {"table": [[0, 0], [1, 24000], [1.001, 264000]]}
+    r = lsc.solve(scene, method="reference", dt=1e-4)
+    assert r.max_deformation[0] < 1 and "warnings" not in r.stats
+    r = lsc.solve(scene, method="reference", dt=1e-3)
+    t_c = 0.5 * np.pi * np.sqrt(3500 / 32.174 / 2 / 24000)   # the first piece's
+    assert f"contact time ({t_c:.4g} s" in r.stats["warnings"][0]
+
+
+# --------------------------------------------------------------------------- memory
+def test_dt_too_small_for_memory_is_refused_up_front():
+    from lsc import data
+    from lsc.solvers.reference import MAX_STEPS
+
+    pulse = lsc.solve(data.load("table1"), method="exact").duration
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.solve(data.load("table1"), dt=2e-9)
+    assert e.value.path == "solver.dt"
+    assert str(e.value) == (
+        f"solver.dt: dt = 2e-09 s would take about {pulse / 2e-9:.3g} steps for this pulse "
+        f"({pulse:.6g} s), more than the {MAX_STEPS} steps a reference run may keep in memory; "
+        "use dt >= 9e-09 s, or an exact method ('auto')")
