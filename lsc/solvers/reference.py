@@ -65,9 +65,10 @@ def why_not(scene) -> str | None:
     return None
 
 
-def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
+def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = MAX_STEPS,
           n_samples: int = 1000) -> Result:
-    """Run the paper's algorithm with time step ``dt`` [s]."""
+    """Run the paper's algorithm with time step ``dt`` [s], at most ``max_steps`` steps (at most
+    :data:`MAX_STEPS`, the most whose run fits in memory)."""
     scene = model.scene
     reason = why_not(scene)
     if reason:
@@ -83,8 +84,11 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = 50_000_000,
     if not V1 > V2:
         raise SceneError("vehicles[0].speed", "the paper's algorithm needs the rear vehicle "
                          "(vehicle 1) faster than the front one at t = 0")
+    if int(max_steps) > MAX_STEPS:
+        raise SceneError("solver.max_steps", f"max_steps must be at most {MAX_STEPS} for the "
+                         f"reference method (its run is held in memory), got {max_steps}")
     _check_steps(model, dt)
-    max_steps = min(int(max_steps), MAX_STEPS)
+    max_steps = int(max_steps)
     start = time.perf_counter()
 
     def settle(D, st):

@@ -151,3 +151,16 @@ def test_dt_too_small_for_memory_is_refused_up_front():
         f"solver.dt: dt = 2e-09 s would take about {pulse / 2e-9:.3g} steps for this pulse "
         f"({pulse:.6g} s), more than the {MAX_STEPS} steps a reference run may keep in memory; "
         "use dt >= 9e-09 s, or an exact method ('auto')")
+
+
+def test_reference_max_steps_beyond_what_fits_in_memory_is_refused_not_capped():
+    from tests.conftest import paper_scene
+    """A max_steps above MAX_STEPS was silently lowered to it; now it is refused, naming it."""
+    from lsc.solvers.reference import MAX_STEPS
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.solve(paper_scene(), method="reference", max_steps=MAX_STEPS + 1)
+    assert e.value.path == "solver.max_steps"
+    assert str(e.value) == (f"solver.max_steps: max_steps must be at most {MAX_STEPS} for the "
+                            f"reference method (its run is held in memory), got {MAX_STEPS + 1}")
+    r = lsc.solve(paper_scene(), method="reference", max_steps=MAX_STEPS)
+    assert r.delta_v[1] == pytest.approx(7.0, rel=1e-3)
