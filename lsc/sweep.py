@@ -120,6 +120,22 @@ class SweepResult:
         cols["status"] = self.status
         return cols
 
+    def to_dataframe(self):
+        """One row per member: the swept values, every metric and the status, as a pandas
+        DataFrame (:func:`lsc.frames.sweep_frame`)."""
+        from .frames import sweep_frame
+        return sweep_frame(self)
+
+    def to_xarray(self):
+        """A grid sweep as an xarray Dataset, one dimension per swept path
+        (:func:`lsc.frames.sweep_xarray`)."""
+        from .frames import sweep_xarray
+        return sweep_xarray(self)
+
+    def _repr_html_(self) -> str:
+        from .html import sweep_html
+        return sweep_html(self)
+
     def to_csv(self, path, metrics=None) -> None:
         """Write :meth:`columns` as a CSV file with a header row (shortest round-trip decimals)."""
         import csv

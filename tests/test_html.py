@@ -105,3 +105,19 @@ def test_an_analysis_result_is_shown_as_its_own_summary_escaped():
     pre = re.search(r"<pre>(.*)</pre>", html, re.DOTALL).group(1)
     assert unescape(pre) == bound.summary()
     assert "<script>" not in html and "&lt;b&gt;&amp;" in html
+
+
+def test_jupyter_shows_sweeps_and_analyses_through_lsc_html():
+    """``_repr_html_`` of a SweepResult and of each analysis result is lsc.html's table; the
+    sweep's ``to_dataframe`` / ``to_xarray`` are lsc.frames'."""
+    from lsc.analysis import max_closing_speed, monte_carlo
+    from lsc.frames import sweep_frame
+
+    s = lsc.sweep(hostile(), {"vehicles.0.speed": [4.0, 6.0, -2.0]})
+    assert s._repr_html_() == sweep_html(s)
+    assert s.to_dataframe().equals(sweep_frame(s))
+    bound = max_closing_speed(hostile(), "5000 lbf")
+    assert bound._repr_html_() == summary_html(bound)
+    mc = monte_carlo(hostile(), {"vehicles.0.speed": {"uniform": [4.0, 8.0]}}, 20, seed=1,
+                     progress=False)
+    assert mc._repr_html_() == summary_html(mc)

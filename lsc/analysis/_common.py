@@ -91,3 +91,12 @@ def check_brent(xtol, rtol, maxiter) -> None:
                                  f"epsilons), got {rtol!r}")
     if isinstance(maxiter, bool) or not isinstance(maxiter, (int, np.integer)) or maxiter < 1:
         raise SceneError("maxiter", f"maxiter must be a positive integer, got {maxiter!r}")
+
+
+class SummaryHTML:
+    """Mixin for the analyses' results: Jupyter shows their :meth:`summary` table as HTML
+    (:func:`lsc.html.summary_html`)."""
+
+    def _repr_html_(self) -> str:
+        from ..html import summary_html
+        return summary_html(self)

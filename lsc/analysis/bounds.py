@@ -19,7 +19,8 @@ import numpy as np
 from ..api import solve
 from ..errors import SceneError, SimulationError
 from ..scene import Scene
-from ._common import check_brent, check_contact, check_keywords, quantity, read_path, split_path
+from ._common import (SummaryHTML, check_brent, check_contact, check_keywords, quantity, read_path,
+                      split_path)
 
 #: Most whole steps above the root ``max_closing_speed`` reports (each is one more solve).
 MAX_MARGIN_STEPS = 1000
@@ -28,7 +29,7 @@ __all__ = ["max_closing_speed", "Bound", "peak_force"]
 
 
 @dataclass(eq=False)
-class Bound:
+class Bound(SummaryHTML):
     """The result of :func:`max_closing_speed`; every value in the scene's unit system.
 
     ``speed`` [velocity]: the value of ``speed_path`` at which the peak force of ``contact`` equals

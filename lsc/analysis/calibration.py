@@ -24,13 +24,13 @@ from ..api import solve
 from ..contact import STATUS
 from ..errors import SceneError, SimulationError
 from ..scene import Hysteresis, Scene
-from ._common import check_brent, check_contact, check_keywords, quantity
+from ._common import SummaryHTML, check_brent, check_contact, check_keywords, quantity
 
 __all__ = ["calibrate_force_scale", "energy_force_scale", "Calibration"]
 
 
 @dataclass(eq=False)
-class Calibration:
+class Calibration(SummaryHTML):
     """The result of :func:`calibrate_force_scale`.
 
     ``factor`` [-]: the loading ``scale`` of the calibrated scene (the multiplier of the table's

@@ -54,7 +54,7 @@ import numpy as np
 from ..errors import SceneError, SimulationError
 from ..result import METRICS as RESULT_METRICS
 from ..scene import UNITS, Damping, Hysteresis, Restitution, Scene, UnloadingStiffness
-from ._common import read_path, split_path
+from ._common import SummaryHTML, read_path, split_path
 
 __all__ = ["sensitivity", "Sensitivity", "default_params", "DEFAULT_METRICS", "METHODS"]
 
@@ -68,7 +68,7 @@ _METRICS = tuple(m for m in RESULT_METRICS if m != "failure_time")
 
 # ---------------------------------------------------------------------------- result
 @dataclass(eq=False)
-class Sensitivity:
+class Sensitivity(SummaryHTML):
     """The result of :func:`sensitivity`; every value in the scene's unit system.
 
     ``params``: the dotted paths differentiated (P); ``labels``: readable names;

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import SceneError
 from ..result import METRICS as RESULT_METRICS
 from ..scene import Scene
-from ._common import check_keywords, path_quantity
+from ._common import SummaryHTML, check_keywords, path_quantity
 
 __all__ = ["monte_carlo", "sample", "MonteCarlo", "flatten_distributions", "METRICS"]
 
@@ -43,7 +43,7 @@ METRICS = {
 
 
 @dataclass(eq=False)
-class MonteCarlo:
+class MonteCarlo(SummaryHTML):
     """The result of :func:`monte_carlo`.
 
     ``samples``: path → sampled values (n,) [scene units]; ``sweep``: the
