@@ -126,6 +126,24 @@ def write_outputs(result, out_dir, plots: bool = True, extra: dict | None = None
     return write_files(writers, overwrite=overwrite, replaces=run_files(out))
 
 
+def require_parquet(wanted: bool = True) -> None:
+    """Raise :class:`lsc.SceneError` where Parquet is ``wanted`` and pyarrow (the ``[frames]``
+    extra) is missing: called before a computation whose output is to be written as Parquet."""
+    if not wanted:
+        return
+    try:
+        import pyarrow  # noqa: F401  (pandas writes Parquet with it)
+    except ModuleNotFoundError:
+        raise SceneError("parquet", "writing Parquet needs pyarrow: pip install 'lsc[frames]'") \
+            from None
+
+
+def parquet_writer(sweep_result):
+    """A writer of ``sweep_result`` as Parquet: one row per member (:meth:`SweepResult.to_dataframe`)."""
+    require_parquet()
+    return lambda file: sweep_result.to_dataframe().to_parquet(file)
+
+
 def add_overwrite_option(p) -> None:
     """Declare ``--overwrite`` on the subcommand parser ``p`` (for commands that write files)."""
     p.add_argument("--overwrite", action="store_true",
@@ -243,6 +261,8 @@ def _add_sweep(sub) -> None:
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output folder (default: {DEFAULT_OUT}/)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figure")
+    p.add_argument("--parquet", action="store_true",
+                   help="also write sweep.parquet (the same table; needs the [frames] extra)")
     add_overwrite_option(p)
     p.set_defaults(func=_cmd_sweep)
 
@@ -253,10 +273,13 @@ def _cmd_sweep(args) -> int:
     params = dict(_sweep_values(t) for t in args.param)
     opts = {k: v for k, v in (("rtol", args.rtol), ("dt", args.dt)) if v is not None}
     out = Path(args.out)
-    files = [out / "sweep.csv", out / "sweep.png"]
+    files = [out / "sweep.csv", out / "sweep.png", out / "sweep.parquet"]
     refuse_existing(files, args.overwrite)
+    require_parquet(args.parquet)
     s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
     writers = {out / "sweep.csv": s.to_csv}
+    if args.parquet:
+        writers[out / "sweep.parquet"] = parquet_writer(s)
     if not args.no_plots:
         from .plots import sweep_metric
         writers[out / "sweep.png"] = lambda file: sweep_metric(s, args.metric, args.index, file)

@@ -337,3 +337,16 @@ def test_a_reader_that_stops_early_gets_no_traceback(tmp_path, args, unbuffered)
     assert p.returncode == 1
     if args[0] == "run" and (tmp_path / "o").exists():
         assert sorted(_files(tmp_path / "o")) == ["series.csv", "summary.json"]
+
+
+def test_sweep_parquet_is_the_sweeps_table(tmp_path, capsys):
+    """``lsc sweep --parquet`` also writes sweep.parquet: the sweep's DataFrame, read back equal."""
+    import pandas as pd
+    pytest.importorskip("pyarrow")
+    out = tmp_path / "s"
+    assert lsc.cli.main(["sweep", "--param", "vehicles.0.speed=2:6:3", "--no-plots", "--parquet",
+                         "--out", str(out)]) == 0
+    table = pd.read_parquet(out / "sweep.parquet")
+    expected = lsc.sweep(lsc.data.load("default"), {"vehicles.0.speed": [2.0, 4.0, 6.0]})
+    pd.testing.assert_frame_equal(table, expected.to_dataframe(), check_like=True)
+    assert "sweep.parquet" in capsys.readouterr().out

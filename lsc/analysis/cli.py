@@ -23,7 +23,7 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from ..cli import add_overwrite_option, json_writer
+from ..cli import add_overwrite_option, json_writer, parquet_writer, require_parquet
 from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
@@ -143,6 +143,9 @@ def add_mc(sub) -> None:
     p.add_argument("--out", metavar="DIR", help="write mc.csv (the samples and the reported metrics of every member) and "
                         "histograms here")
     p.add_argument("--no-plots", action="store_true", help="with --out: no histogram PNGs")
+    p.add_argument("--parquet", action="store_true",
+                   help="with --out: also write mc.parquet (every member's samples and metrics; "
+                        "needs the [frames] extra)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_overwrite_option(p)
     p.set_defaults(func=cmd_mc)
@@ -153,7 +156,7 @@ MC_METRICS = ("delta_v", "peak_acceleration_g", "duration", "peak_force")
 
 
 def _mc_files(out: Path) -> list[Path]:
-    return [out / "mc.csv", *(out / f"mc_{metric}.png" for metric in MC_METRICS)]
+    return [out / "mc.csv", out / "mc.parquet", *(out / f"mc_{metric}.png" for metric in MC_METRICS)]
 
 
 def _histogram_writer(mc, metric: str):
@@ -173,11 +176,14 @@ def cmd_mc(args) -> int:
     scene, dists = load_with_uncertainty(args.scene, args.uncertainty)
     out = Path(args.out) if args.out else None
     refuse_existing(_mc_files(out) if out else [], args.overwrite)
+    require_parquet(bool(out) and args.parquet)
     mc = monte_carlo(scene, dists, args.n, seed=args.seed, method=args.method,
                      progress=False if args.no_progress else None, percentiles=args.percentiles)
     print(mc.summary())
     if out:
         writers = {out / "mc.csv": lambda file: mc.sweep.to_csv(file, metrics=MC_METRICS)}
+        if args.parquet:
+            writers[out / "mc.parquet"] = parquet_writer(mc.sweep)
         if not args.no_plots:
             writers.update({out / f"mc_{m}.png": _histogram_writer(mc, m) for m in MC_METRICS})
         written = write_files(writers, overwrite=args.overwrite, replaces=_mc_files(out))
