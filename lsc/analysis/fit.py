@@ -22,10 +22,14 @@ backend: :func:`lsc.analysis.sensitivity` differentiates through the diffrax sol
 summary metrics (ΔV, peak acceleration, duration), not the sampled time series a fit needs.
 
 Standard errors come from the Jacobian ``J`` at the solution (weighted residuals against the
-parameters): ``σ² = SSR/(n - p)``, ``cov = σ² (JᵀJ)⁻¹``; the correlation is ``cov`` normalised by
-the standard errors. They are those of an ordinary least-squares fit: they assume independent
-residuals of one variance, which J211-filtered noise is not (neighbouring samples are correlated),
-so they are a lower bound on the real uncertainty; see the docs' "how to report a fit".
+parameters). ``errors="independent"`` gives the ordinary least-squares ones, ``σ² = SSR/(n - p)``,
+``cov = σ² (JᵀJ)⁻¹``, which hold for independent residuals of one variance. Filtered test data
+are not that: J211 CFC 60 noise is correlated over about a millisecond (ten samples at 10 kHz), and
+those formulas then understate the uncertainty several times. The default,
+``errors="autocorrelated"``, is the Newey–West (heteroscedasticity and autocorrelation consistent)
+sandwich ``(JᵀJ)⁻¹ S (JᵀJ)⁻¹``, ``S`` the Bartlett-weighted lagged products of ``J_t r_t`` within
+each channel, up to twice the lag where the channel's residual autocorrelation first turns
+negative. The correlation is ``cov`` normalised by the standard errors.
 """
 
 from __future__ import annotations
@@ -44,10 +48,16 @@ from ..scene import Scene
 from ._common import path_kind, read_path
 from .compare import _first_contact, _rate
 
-__all__ = ["fit", "FitResult", "scene_toml"]
+__all__ = ["fit", "FitResult", "scene_toml", "sampled_channels", "ERRORS"]
+
+#: Accepted ``errors`` values of :func:`fit`.
+ERRORS = ("autocorrelated", "independent")
 
 #: Fitted channel roles: prefix → the result series and kind it is compared with.
 _ROLES = {"accel_": "acceleration", "force": "force"}
+#: Smallest ratio of the Jacobian's singular values for parameters the channels can tell apart
+#: (finite differences are good to about 1e-8).
+_RANK_TOLERANCE = 1e-7
 #: Value of a path the scene may leave out (the loader's default).
 _DEFAULTS = {"scale": 1.0}
 
@@ -63,7 +73,9 @@ class FitResult:
     ``residuals`` (simulated - measured): role → array on ``t``; ``weights``: role → the factor its
     residuals were multiplied by; ``iso18571``: role → :class:`~lsc.analysis.ISO18571Rating` of
     the fitted simulation against the test; ``ssr`` (weighted sum of squared residuals), ``dof``
-    (samples - parameters), ``sigma`` (``√(ssr/dof)``), ``nfev``, ``message``, ``method``.
+    (samples - parameters), ``sigma`` (``√(ssr/dof)``), ``nfev``, ``message``, ``method``;
+    ``errors``: how the standard errors were computed (see :func:`fit`), ``correlation_time``:
+    role → the Newey–West bandwidth [s] used for that channel.
     """
 
     params: tuple
@@ -89,6 +101,8 @@ class FitResult:
     units: dict = field(default_factory=dict)
     channels: object = None
     mapping: dict | None = None
+    errors: str = "autocorrelated"
+    correlation_time: dict = field(default_factory=dict)
 
     def summary(self) -> str:
         """The fitted values with standard errors, the correlations and the ratings, as text."""
@@ -138,7 +152,7 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
         mapping: dict | None = None, roles=None, weights: dict | None = None, window=None,
         method: str | None = None, jac: str = "2-point", diff_step=None, ftol: float = 1e-10,
         xtol: float = 1e-10, gtol: float = 1e-10, max_nfev: int | None = None,
-        n_samples: int | None = None, **options) -> FitResult:
+        n_samples: int | None = None, errors: str = "autocorrelated", **options) -> FitResult:
     """Fit scene parameters to measured channels by least squares.
 
     Parameters
@@ -170,6 +184,10 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
         As for :func:`scipy.optimize.least_squares` (the step is relative to the starting values).
     n_samples : int, optional
         Samples of each simulation (default: ten per measured sample in the window).
+    errors : ``"autocorrelated"`` or ``"independent"``
+        Standard errors that allow for residuals correlated in time (filtered noise, model error;
+        Newey–West, the default) or the ordinary least-squares ``σ² (JᵀJ)⁻¹``, which assumes
+        independent residuals and understates the uncertainty of filtered data several times.
     **options
         Further solver options for :func:`lsc.solve`.
 
@@ -183,6 +201,8 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     """
     from scipy.optimize import least_squares
 
+    if errors not in ERRORS:
+        raise SceneError("errors", f"one of {', '.join(ERRORS)}, got {errors!r}")
     base = Scene.load(scene)
     params = _checked_params(params)
     start = _starting_values(base, params, initial or {})
@@ -190,6 +210,7 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     ref = np.where(start != 0, np.abs(start), 1.0)
     problem = _Problem(base, channels, params, ref, mapping, roles, weights, window, method,
                        n_samples, options)
+    problem.errors = errors
     sol = least_squares(problem.weighted, start / ref, jac=jac, bounds=(lower / ref, upper / ref),
                         method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
                         max_nfev=max_nfev, x_scale=1.0)
@@ -296,7 +317,7 @@ class _Problem:
         r = np.concatenate([(sim[k] - self.measured[k]) * self.weights[k] for k in self.roles])
         ssr = float(r @ r)
         dof = r.size - len(self.params)
-        cov, corr = _covariance(J, ssr / dof, self.params)
+        cov, corr, lags = _covariance(J, r, [self.t.size] * len(self.roles), self.errors, self.params)
         se = np.sqrt(np.diag(cov))
         ratings = {k: _rate(self.t, self.measured[k], sim[k]) for k in self.roles}
         units = {q: _unit(sc, q) for q in self.params}
@@ -305,7 +326,8 @@ class _Problem:
                          self.measured, sim, {k: sim[k] - self.measured[k] for k in self.roles},
                          dict(self.weights), ratings, ssr, dof, math.sqrt(ssr / dof), self.nfev,
                          str(sol.message), str(res.method),
-                         units, self.channels, self.mapping)
+                         units, self.channels, self.mapping, self.errors,
+                         dict(zip(self.roles, (lag * float(self.t[1] - self.t[0]) for lag in lags))))
 
 
 def _with_context(err, at: str) -> tuple:
@@ -378,17 +400,82 @@ def _simulated(res, t: np.ndarray, roles: dict) -> dict:
     return out
 
 
-def _covariance(J: np.ndarray, sigma2: float, params) -> tuple[np.ndarray, np.ndarray]:
-    JtJ = J.T @ J
-    if np.linalg.matrix_rank(J) < J.shape[1]:
+def sampled_channels(result, t, *, source: str = "simulation"):
+    """What ideal sensors would record of ``result`` on the time base ``t`` [s] (0 = its first
+    contact): :class:`~lsc.analysis.channels.Channels` ``accel_<vehicle>``, ``force`` /
+    ``deformation`` (``force_2`` ... for later contacts), in the scene's unit system. Before
+    first contact all are zero; after the simulated crash (no braking) the accelerations and
+    forces are zero and the deformations follow the vehicles' uniform motion.
+    """
+    from .channels import Channel, Channels
+
+    sc = result.scene
+    if any(v.brake is not None for v in sc.vehicles):
+        raise SceneError("result", "sampled_channels needs a scene without braking (its motion after "
+                                   "the simulation is not known)")
+    t = np.asarray(t, float)
+    t_sim = result.t - _first_contact(result)
+    u = {k: sc.unit(k) for k in ("acceleration", "force", "length")}
+    out = {}
+    for i, v in enumerate(sc.vehicles):
+        name = f"accel_{v.name}"
+        out[name] = Channel(name, np.interp(t, t_sim, result.a[:, i], left=0.0, right=0.0),
+                            u["acceleration"], "acceleration", source)
+    for k in range(len(sc.contacts)):
+        suffix = "" if k == 0 else f"_{k + 1}"
+        d = np.interp(t, t_sim, result.deformation[:, k], left=0.0)
+        after = t > t_sim[-1]
+        d[after] += (result.v[-1, k] - result.v[-1, k + 1]) * (t[after] - t_sim[-1])
+        out[f"force{suffix}"] = Channel(f"force{suffix}", np.interp(t, t_sim, result.force[:, k], left=0.0,
+                                                                    right=0.0), u["force"], "force", source)
+        out[f"deformation{suffix}"] = Channel(f"deformation{suffix}", d, u["length"], "displacement", source)
+    return Channels(t, out, source)
+
+
+def _covariance(J: np.ndarray, r: np.ndarray, sizes, errors: str, params):
+    """``(cov, corr, lags)`` of the parameters from the Jacobian ``J`` (n, P) of the weighted
+    residuals ``r`` (n,), stacked by channel (``sizes``). ``"independent"``: ``σ² (JᵀJ)⁻¹``,
+    ``σ² = SSR/(n - P)``; ``"autocorrelated"``: the Newey–West sandwich ``(JᵀJ)⁻¹ S (JᵀJ)⁻¹``,
+    ``S`` the Bartlett-weighted sum of the lagged products of ``J_t r_t`` within each channel,
+    over ``lags`` (per channel: twice the lag where the residuals' autocorrelation first turns
+    negative), times ``n/(n - P)``."""
+    n, P = J.shape
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not sv[-1] > _RANK_TOLERANCE * sv[0]:
         raise SceneError("params", f"the channels cannot tell the parameters {list(params)} apart "
                                    f"(their Jacobian columns are dependent): fit fewer parameters")
-    cov = sigma2 * np.linalg.inv(JtJ)
+    inv = np.linalg.inv(J.T @ J)
+    if errors == "independent":
+        cov, lags = (r @ r) / (n - P) * inv, [0] * len(sizes)
+    else:
+        meat, lags, start = np.zeros((P, P)), [], 0
+        for size in sizes:
+            part, lag = _lagged_products(J[start:start + size], r[start:start + size])
+            meat += part
+            lags.append(lag)
+            start += size
+        cov = inv @ meat @ inv * n / (n - P)
     se = np.sqrt(np.diag(cov))
     with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(se, se)
-    corr = np.where(np.outer(se, se) > 0, corr, np.eye(len(params)))
-    return cov, corr
+        corr = np.where(np.outer(se, se) > 0, cov / np.outer(se, se), np.eye(P))
+    return cov, corr, lags
+
+
+def _lagged_products(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, int]:
+    """One channel's Newey–West sum ``Σ_l w_l (Γ_l + Γ_lᵀ)`` (Bartlett ``w_l = 1 - l/(L+1)``) and
+    its bandwidth ``L``."""
+    g = J * r[:, None]
+    meat = g.T @ g
+    power = float(r @ r)
+    if power == 0.0:
+        return meat, 0
+    rho = np.correlate(r, r, "full")[r.size - 1:] / power
+    negative = np.nonzero(rho < 0)[0]
+    lag = min(r.size // 4, 2 * int(negative[0] if negative.size else r.size))
+    for l in range(1, lag + 1):
+        G = g[l:].T @ g[:-l]
+        meat += (1.0 - l / (lag + 1)) * (G + G.T)
+    return meat, lag
 
 
 def _unit(scene: Scene, path: str) -> str:
