@@ -12,7 +12,9 @@
   averaged; exact for a two-vehicle crash without braking).
 
 ``"auto"`` (default) uses the force and displacement channels where both are present. Time zero
-of the channels is first contact (deformation zero there: a displacement channel is offset so).
+of the channels is first contact; a displacement channel is taken as it reads (zero at first
+contact: remove a sensor offset with ``read_channels(..., offset="pre-trigger")``). The loading
+table starts at ``(0, 0)`` (first contact), then the samples with positive deformation.
 
 The loop is split at its maximum deformation into the **loading** branch (time zero to the
 maximum) and the **unloading** branch (the maximum to the first zero of the force, located by
@@ -184,8 +186,7 @@ def _need(roles: dict, names, what: str, where: str):
 
 def _from_channels(roles, inside, system, where):
     force, deform = _need(roles, ("force", "deformation"), "a loop from a load cell and a displacement", where)
-    d = deform.to(system)[inside]
-    return d - d[0], force.to(system)[inside]
+    return deform.to(system)[inside], force.to(system)[inside]
 
 
 def _from_accelerations(roles, sc, contact, t, inside, system, closing_speed, where):
@@ -236,7 +237,7 @@ def _records(d, f, *, increasing: bool):
     monotone table, and how many points were left out."""
     sign = 1.0 if increasing else -1.0
     keep = np.zeros(d.size, bool)
-    best = -np.inf
+    best = 0.0 if increasing else -np.inf       # loading: from D = 0
     for i, x in enumerate(sign * d):
         if x > best:
             keep[i], best = True, x
@@ -244,7 +245,12 @@ def _records(d, f, *, increasing: bool):
         last = np.nonzero(keep)[0]
         keep[last[sign * d[last] >= sign * d[-1]]] = False
         keep[-1] = True
-    return np.column_stack([d[keep], f[keep]]), int(d.size - np.count_nonzero(keep))
+    table = np.column_stack([d[keep], f[keep]])
+    left_out = d.size - np.count_nonzero(keep)
+    if increasing:                              # first contact: zero force at zero deformation
+        table = np.vstack([[0.0, 0.0], table])
+        left_out -= int(d[0] <= 0.0)            # the first sample is that point
+    return table, int(left_out)
 
 
 def _first_zero(d, f, i_max):
