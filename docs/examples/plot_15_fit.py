@@ -51,10 +51,12 @@ with tempfile.TemporaryDirectory() as tmp:
 print(text)
 
 # %%
-# The paper's force-scale calibration as a special case: the measured loading table, with its
+# The paper's force-scale calibration as a special case: the measured loading table with its
 # forces scaled by one factor. The calibration finds the factor that brings the vehicles to their
-# common velocity at the table's last point; the fit finds the factor that best reproduces the
-# accelerations. On data that obey Newton's law the two agree (here to the noise).
+# common velocity at the table's last point (one equation: the energy the table absorbs up to its
+# end is the closing energy ½ μ v0²); the fit finds the factor that best reproduces the
+# accelerations (the table extended beyond its last point, so that any factor gives a crash).
+# On channels that agree with Newton's law the two answers agree to the noise, as here.
 measured = scene.with_values({"contacts.0.loading": loop.loading_spec(),
                               "contacts.0.unloading": {"restitution": 0.4}})
 calibration = calibrate_force_scale(measured)
@@ -65,11 +67,3 @@ scaled = fit(extended, test, ["contacts.0.loading.scale"], roles=["accel_bullet"
 print(f"calibrate_force_scale: {calibration.factor:.4f}; fitted scale: "
       f"{scaled.values['contacts.0.loading.scale']:.4f} ± {scaled.standard_errors['contacts.0.loading.scale']:.4f}")
 plt.show()
-
-# %%
-# They answer different questions, and differ here by far more than the fit's standard error:
-# the fitted crash needs more deformation than the measured table's last point, because the
-# filtered displacement channel reads the peak deformation short of what the accelerations imply.
-print(f"measured D_max {loop.max_deformation:.4f} ft; the fitted crash's "
-      f"{scaled.result.max_deformation[0]:.4f} ft; from the accelerations "
-      f"{ifd_loop(test, scene, source='accelerations').max_deformation:.4f} ft")
