@@ -209,8 +209,7 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     lower, upper = _bounds(params, start, bounds or {})
     ref = np.where(start != 0, np.abs(start), 1.0)
     problem = _Problem(base, channels, params, ref, mapping, roles, weights, window, method,
-                       n_samples, options)
-    problem.errors = errors
+                       n_samples, errors, options)
     sol = least_squares(problem.weighted, start / ref, jac=jac, bounds=(lower / ref, upper / ref),
                         method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
                         max_nfev=max_nfev, x_scale=1.0)
@@ -279,9 +278,9 @@ class _Problem:
     parameters relative to their reference values."""
 
     def __init__(self, base, channels, params, ref, mapping, roles, weights, window, method,
-                 n_samples, options):
+                 n_samples, errors, options):
         self.base, self.channels, self.params, self.ref = base, channels, params, ref
-        self.mapping, self.method = mapping, method
+        self.mapping, self.method, self.errors = mapping, method, errors
         self.roles = _fitted_roles(base, channels, mapping, roles)
         self.t, self.inside = _samples(channels, window)
         if self.t.size * len(self.roles) <= len(params):

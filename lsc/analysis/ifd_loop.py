@@ -18,8 +18,9 @@ table starts at ``(0, 0)`` (first contact), then the samples with positive defor
 
 The loop is split at its maximum deformation into the **loading** branch (time zero to the
 maximum) and the **unloading** branch (the maximum to the first zero of the force, located by
-linear interpolation), each a table a scene takes as it is: ``loading = {"table": ...}``
-(``[[0, F0], ..., [D_max, F_max]]``, deformation strictly increasing from 0) and
+linear interpolation, or extrapolation from the two samples before where the record ends with
+the pulse), each a table a scene takes as it is: ``loading = {"table": ...}``
+(``[[0, 0], ..., [D_max, F_max]]``, deformation strictly increasing from 0) and
 ``unloading = {"table": ...}`` (``[[D_max, F_max], ..., [D_perm, 0]]``, deformation strictly
 decreasing, last force 0), in the scene's unit system. Measured noise makes a deformation
 channel go back and forth: each branch keeps only the samples that extend it (a new largest
