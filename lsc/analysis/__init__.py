@@ -14,16 +14,21 @@
   data as loading curves; :func:`cfc_filter`: the SAE J211 / ISO 6487 CFC filter;
 - :func:`read_channels`: crash-test channels from CSV/TSV/Excel tables or ISO-MME data sets;
   :func:`iso18571`: the ISO/TS 18571 objective rating of two time histories; :func:`compare`: a
-  simulation beside its test (pulses, metric differences, ratings).
+  simulation beside its test (pulses, metric differences, ratings);
+- :func:`ifd_loop`: the dynamic IF-D loop of a test (load cell and displacement, or both
+  accelerations) as a scene's loading and unloading tables; :func:`fit`: least-squares fit of
+  scene parameters to test channels, with standard errors and ISO/TS 18571 ratings.
 """
 
 from .bounds import Bound, max_closing_speed, peak_force
 from .calibration import Calibration, calibrate_force_scale, energy_force_scale
 from .channels import Channel, Channels, read_channels
 from .compare import Comparison, compare
+from .fit import FitResult, fit, sampled_channels, scene_toml
 from .filters import CFC_CLASSES, cfc_coefficients, cfc_filter, cfc_response, j211_corridor
 from .measured import (curve_table, envelope, measured_curve, read_columns, read_measured,
                        series_measured)
+from .ifd_loop import IFDLoop, ifd_loop
 from .iso18571 import ISO18571Rating, iso18571
 from .mer import MER, format_mer, mer, mer_for
 from .sensitivity import Sensitivity, default_params, sensitivity
@@ -38,4 +43,5 @@ __all__ = [
     "read_measured", "read_columns", "measured_curve", "series_measured", "curve_table", "envelope",
     "cfc_filter", "cfc_coefficients", "cfc_response", "j211_corridor", "CFC_CLASSES",
     "read_channels", "Channels", "Channel", "iso18571", "ISO18571Rating", "compare", "Comparison",
+    "ifd_loop", "IFDLoop", "fit", "FitResult", "sampled_channels", "scene_toml",
 ]

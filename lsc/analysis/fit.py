@@ -1,0 +1,545 @@
+"""Least-squares fit of scene parameters to measured crash-test channels.
+
+:func:`fit` adjusts any numeric scene fields, named by their dotted paths
+(``"contacts.0.loading.stiffness"``, ``"contacts.0.loading.scale"``, ``"contacts.0.unloading.restitution"``,
+``"vehicles.0.speed"``, ``"vehicles.1.weight"``, ...), until the simulated acceleration of each
+vehicle with an ``accel_<vehicle>`` channel and the contact force of each contact with a ``force``
+channel (:meth:`~lsc.analysis.channels.Channels.match`) agree with the measured ones in the
+least-squares sense (:func:`scipy.optimize.least_squares`, trust-region reflective, with bounds).
+
+The time alignment is :func:`~lsc.analysis.compare`'s: the simulation's first contact is put at the
+test's time zero, the simulated channels are read on the measured samples from time zero to the
+end of the record (or ``window``), and after the simulated crash has ended the simulated
+acceleration and force are zero (a scene without braking; with braking the simulation must last
+to the end of the window). Each channel's residual (simulated - measured, scene units) is divided
+by the channel's peak ``|measured|`` (or multiplied by ``weights[role]``), so channels of
+different units can be fitted together.
+
+The Jacobian is taken by finite differences of :func:`lsc.solve` (forward, ``jac="2-point"``, or
+central, ``"3-point"``) on the parameters relative to their starting values, so the step is
+relative (``diff_step``, default ``√ε`` resp. ``ε^(1/3)`` of the starting value). This holds for any
+backend: :func:`lsc.analysis.sensitivity` differentiates through the diffrax solve, but only its
+summary metrics (ΔV, peak acceleration, duration), not the sampled time series a fit needs.
+
+Standard errors come from the Jacobian ``J`` at the solution (weighted residuals against the
+parameters). ``errors="independent"`` gives the ordinary least-squares ones, ``σ² = SSR/(n - p)``,
+``cov = σ² (JᵀJ)⁻¹``, which hold for independent residuals of one variance. Filtered test data
+are not that: J211 CFC 60 noise is correlated over about a millisecond (ten samples at 10 kHz), and
+those formulas then understate the uncertainty several times. The default,
+``errors="autocorrelated"``, is the Newey–West (heteroscedasticity and autocorrelation consistent)
+sandwich ``(JᵀJ)⁻¹ S (JᵀJ)⁻¹``, ``S`` the Bartlett-weighted lagged products of ``J_t r_t`` within
+each channel, up to twice the lag where the channel's residual autocorrelation first turns
+negative. The correlation is ``cov`` normalised by the standard errors.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..api import solve
+from ..errors import SceneError, SimulationError
+from ..scene import Scene
+from ._common import path_kind, read_path
+from .compare import _first_contact, _rate
+
+__all__ = ["fit", "FitResult", "scene_toml", "sampled_channels", "ERRORS"]
+
+#: Accepted ``errors`` values of :func:`fit`.
+ERRORS = ("autocorrelated", "independent")
+
+#: Fitted channel roles: prefix → the result series and kind it is compared with.
+_ROLES = {"accel_": "acceleration", "force": "force"}
+#: Smallest ratio of the Jacobian's singular values for parameters the channels can tell apart
+#: (finite differences are good to about 1e-8).
+_RANK_TOLERANCE = 1e-7
+#: Value of a path the scene may leave out (the loader's default).
+_DEFAULTS = {"scale": 1.0}
+
+
+@dataclass(eq=False)
+class FitResult:
+    """The result of :func:`fit`; every value in the scene's unit system.
+
+    ``values``: path → fitted value; ``initial``: path → starting value; ``standard_errors``:
+    path → standard error; ``covariance`` (P, P) and ``correlation`` (P, P), in the order of
+    ``params``; ``scene``: the fitted scene (:meth:`to_toml` writes it), ``result``: its crash;
+    ``t`` [s]: the fitted samples (time from first contact); ``measured``, ``simulated`` and
+    ``residuals`` (simulated - measured): role → array on ``t``; ``weights``: role → the factor its
+    residuals were multiplied by; ``iso18571``: role → :class:`~lsc.analysis.ISO18571Rating` of
+    the fitted simulation against the test; ``ssr`` (weighted sum of squared residuals), ``dof``
+    (samples - parameters), ``sigma`` (``√(ssr/dof)``), ``nfev``, ``message``, ``method``;
+    ``errors``: how the standard errors were computed (see :func:`fit`), ``correlation_time``:
+    role → the Newey–West bandwidth [s] used for that channel.
+    """
+
+    params: tuple
+    values: dict
+    initial: dict
+    standard_errors: dict
+    covariance: np.ndarray
+    correlation: np.ndarray
+    scene: Scene
+    result: object
+    t: np.ndarray
+    measured: dict
+    simulated: dict
+    residuals: dict
+    weights: dict
+    iso18571: dict
+    ssr: float
+    dof: int
+    sigma: float
+    nfev: int
+    message: str
+    method: str
+    units: dict = field(default_factory=dict)
+    channels: object = None
+    mapping: dict | None = None
+    errors: str = "autocorrelated"
+    correlation_time: dict = field(default_factory=dict)
+
+    def summary(self) -> str:
+        """The fitted values with standard errors, the correlations and the ratings, as text."""
+        lines = [f"fit of {len(self.params)} parameter(s) to {', '.join(self.measured)} "
+                 f"({self.dof + len(self.params)} samples, {self.nfev} simulations, {self.method}):"]
+        for p in self.params:
+            u = self.units.get(p, "")
+            lines.append(f"  {p} = {self.values[p]:.8g} ± {self.standard_errors[p]:.3g} {u}".rstrip()
+                         + f"   (start {self.initial[p]:.6g})")
+        if len(self.params) > 1:
+            lines.append("  correlation: " + "; ".join(
+                f"{a} / {b}: {self.correlation[i, j]:+.3f}" for i, a in enumerate(self.params)
+                for j, b in enumerate(self.params) if j > i))
+        lines.append(f"  residual r.m.s. (weighted) {self.sigma:.4g}")
+        for role, r in self.iso18571.items():
+            lines.append(f"  ISO/TS 18571 {role}: {r.total:.3f} (corridor {r.corridor:.3f}, phase "
+                         f"{r.phase:.3f}, magnitude {r.magnitude:.3f}, slope {r.slope:.3f})")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict: values, standard errors, correlation, ratings, fit statistics."""
+        return {"params": list(self.params), "values": dict(self.values), "initial": dict(self.initial),
+                "standard_errors": dict(self.standard_errors), "units": dict(self.units),
+                "correlation": self.correlation.tolist(), "ssr": self.ssr, "dof": self.dof,
+                "sigma": self.sigma, "nfev": self.nfev, "method": self.method,
+                "weights": dict(self.weights),
+                "iso18571": {k: r.as_dict() for k, r in self.iso18571.items()}}
+
+    def to_json(self, path) -> Path:
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+        return path
+
+    def to_toml(self, path=None) -> str:
+        """The fitted scene as TOML text (written to ``path`` too, if given); see :func:`scene_toml`."""
+        return scene_toml(self.scene, path)
+
+    def comparison(self, **kwargs):
+        """:func:`~lsc.analysis.compare` of the fitted crash with the channels (its ``figure()``
+        is the overlay of the paper's Figs. 6-7)."""
+        from .compare import compare
+
+        return compare(self.result, self.channels, mapping=self.mapping, **kwargs)
+
+
+def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | None = None,
+        mapping: dict | None = None, roles=None, weights: dict | None = None, window=None,
+        method: str | None = None, jac: str = "2-point", diff_step=None, ftol: float = 1e-10,
+        xtol: float = 1e-10, gtol: float = 1e-10, max_nfev: int | None = None,
+        n_samples: int | None = None, errors: str = "autocorrelated", **options) -> FitResult:
+    """Fit scene parameters to measured channels by least squares.
+
+    Parameters
+    ----------
+    scene : dict, path or Scene
+        The scene to fit (its values are the starting values).
+    channels : Channels
+        The measured channels (:func:`~lsc.analysis.read_channels`), time zero at first contact.
+    params : list of str
+        Dotted scene paths of the fitted parameters (``"contacts.0.loading.stiffness"``, ...). A
+        loading ``scale`` the scene does not set starts at 1.
+    initial : dict, optional
+        ``{path: starting value}`` (scene units), overriding the scene's values.
+    bounds : dict, optional
+        ``{path: (lower, upper)}``; default ``[0, 1]`` for a restitution, ``(0, ∞)`` for a
+        stiffness, mass, weight or scale, unbounded otherwise.
+    mapping : dict, optional
+        ``{role: channel name}`` (as for :func:`~lsc.analysis.compare`).
+    roles : list of str, optional
+        The channel roles fitted (``"accel_<vehicle>"``, ``"force"``, ``"force_2"``, ...); default:
+        every acceleration and force role the channels match.
+    weights : dict, optional
+        ``{role: factor}`` the residuals of a role are multiplied by (default ``1/max|measured|``).
+    window : (float, float), optional
+        Fitted interval [s] of the record (default: time zero to the end of the record).
+    method : str, optional
+        Backend of :func:`lsc.solve` (default: the scene's, ``auto``).
+    jac, diff_step, ftol, xtol, gtol, max_nfev
+        As for :func:`scipy.optimize.least_squares` (the step is relative to the starting values).
+    n_samples : int, optional
+        Samples of each simulation (default: ten per measured sample in the window).
+    errors : ``"autocorrelated"`` or ``"independent"``
+        Standard errors that allow for residuals correlated in time (filtered noise, model error;
+        Newey–West, the default) or the ordinary least-squares ``σ² (JᵀJ)⁻¹``, which assumes
+        independent residuals and understates the uncertainty of filtered data several times.
+    **options
+        Further solver options for :func:`lsc.solve`.
+
+    Raises
+    ------
+    lsc.SceneError
+        A path that is no numeric field, a start outside its bounds, no fitted channel, fewer
+        samples than parameters, or parameters that the channels cannot tell apart.
+    lsc.SimulationError
+        A simulation on the way fails (the message names the parameter values).
+    """
+    from scipy.optimize import least_squares
+
+    if errors not in ERRORS:
+        raise SceneError("errors", f"one of {', '.join(ERRORS)}, got {errors!r}")
+    base = Scene.load(scene)
+    params = _checked_params(params)
+    start = _starting_values(base, params, initial or {})
+    lower, upper = _bounds(params, start, bounds or {})
+    ref = np.where(start != 0, np.abs(start), 1.0)
+    problem = _Problem(base, channels, params, ref, mapping, roles, weights, window, method,
+                       n_samples, errors, options)
+    sol = least_squares(problem.weighted, start / ref, jac=jac, bounds=(lower / ref, upper / ref),
+                        method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
+                        max_nfev=max_nfev, x_scale=1.0)
+    if sol.status <= 0:
+        raise SimulationError(f"the fit did not converge: {sol.message} (raise max_nfev, or start "
+                              f"closer to the solution)")
+    return problem.result(sol, start)
+
+
+def _checked_params(params) -> tuple:
+    if isinstance(params, str) or not params:
+        raise SceneError("params", "a list of dotted scene paths, e.g. ['contacts.0.loading.stiffness']")
+    params = tuple(str(p) for p in params)
+    if len(set(params)) != len(params):
+        raise SceneError("params", f"a path is given twice: {list(params)}")
+    return params
+
+
+def _starting_values(scene: Scene, params, initial: dict) -> np.ndarray:
+    unknown = set(initial) - set(params)
+    if unknown:
+        raise SceneError("initial", f"{sorted(unknown)} are not fitted parameters: {list(params)}")
+    out = []
+    for p in params:
+        if p in initial:
+            value = float(initial[p])
+        else:
+            try:
+                value = read_path(scene, p)
+            except SceneError:
+                last = p.replace("]", "").split(".")[-1]
+                if last not in _DEFAULTS:
+                    raise
+                value = _DEFAULTS[last]
+        scene.with_values({p: value})            # the loader's check that the path is a numeric field
+        out.append(value)
+    return np.array(out, float)
+
+
+def _bounds(params, start: np.ndarray, given: dict):
+    unknown = set(given) - set(params)
+    if unknown:
+        raise SceneError("bounds", f"{sorted(unknown)} are not fitted parameters: {list(params)}")
+    lower, upper = [], []
+    for p, x0 in zip(params, start):
+        lo, hi = given.get(p, _default_bounds(p))
+        if not lo < x0 < hi:
+            raise SceneError(f"bounds.{p}", f"the starting value {x0:g} must lie strictly inside the "
+                                            f"bounds ({lo:g}, {hi:g})")
+        lower.append(float(lo))
+        upper.append(float(hi))
+    return np.array(lower), np.array(upper)
+
+
+def _default_bounds(path: str) -> tuple[float, float]:
+    last = path.replace("]", "").split(".")[-1]
+    if last == "restitution":
+        return 0.0, 1.0
+    if last in ("stiffness", "mass", "weight", "scale"):
+        return 0.0, math.inf
+    return -math.inf, math.inf
+
+
+class _Problem:
+    """The weighted residuals of a scene's simulation against its channels, as a function of the
+    parameters relative to their reference values."""
+
+    def __init__(self, base, channels, params, ref, mapping, roles, weights, window, method,
+                 n_samples, errors, options):
+        self.base, self.channels, self.params, self.ref = base, channels, params, ref
+        self.mapping, self.method, self.errors = mapping, method, errors
+        self.roles = _fitted_roles(base, channels, mapping, roles)
+        self.t, self.inside = _samples(channels, window)
+        if self.t.size * len(self.roles) <= len(params):
+            raise SceneError("params", f"{len(params)} parameters need more than "
+                                       f"{self.t.size * len(self.roles)} fitted samples")
+        self.measured = {r: ch.to(base.units)[self.inside] for r, ch in self.roles.items()}
+        self.weights = _weights(self.measured, weights or {})
+        self.options = {"n_samples": n_samples or 10 * self.t.size, **options}
+        self.nfev = 0
+
+    def scene(self, p: np.ndarray) -> Scene:
+        return self.base.with_values({k: float(v) for k, v in zip(self.params, p)})
+
+    def simulate(self, p: np.ndarray):
+        """The scene at parameters ``p`` (scene units), its result and its channels on ``t``."""
+        self.nfev += 1
+        try:
+            sc = self.scene(p)
+            res = solve(sc, self.method, **self.options)
+        except (SceneError, SimulationError) as err:
+            at = ", ".join(f"{k} = {v:.10g}" for k, v in zip(self.params, p))
+            raise type(err)(*_with_context(err, at)) from err
+        return sc, res, _simulated(res, self.t, self.roles)
+
+    def weighted(self, x: np.ndarray) -> np.ndarray:
+        _, _, sim = self.simulate(x * self.ref)
+        return np.concatenate([(sim[r] - self.measured[r]) * self.weights[r] for r in self.roles])
+
+    def result(self, sol, start: np.ndarray) -> FitResult:
+        p = sol.x * self.ref
+        sc, res, sim = self.simulate(p)
+        J = sol.jac / self.ref                              # d(weighted residual)/d(parameter)
+        r = np.concatenate([(sim[k] - self.measured[k]) * self.weights[k] for k in self.roles])
+        ssr = float(r @ r)
+        dof = r.size - len(self.params)
+        cov, corr, lags = _covariance(J, r, [self.t.size] * len(self.roles), self.errors, self.params)
+        se = np.sqrt(np.diag(cov))
+        ratings = {k: _rate(self.t, self.measured[k], sim[k]) for k in self.roles}
+        units = {q: _unit(sc, q) for q in self.params}
+        return FitResult(self.params, dict(zip(self.params, p.tolist())), dict(zip(self.params, start.tolist())),
+                         dict(zip(self.params, se.tolist())), cov, corr, sc, res, self.t,
+                         self.measured, sim, {k: sim[k] - self.measured[k] for k in self.roles},
+                         dict(self.weights), ratings, ssr, dof, math.sqrt(ssr / dof), self.nfev,
+                         str(sol.message), str(res.method),
+                         units, self.channels, self.mapping, self.errors,
+                         dict(zip(self.roles, (lag * float(self.t[1] - self.t[0]) for lag in lags))))
+
+
+def _with_context(err, at: str) -> tuple:
+    if isinstance(err, SceneError):
+        return err.path, f"{err.message} (at {at})"
+    return (f"{err} (at {at}; start the fit closer to the solution or bound the parameters)",)
+
+
+def _fitted_roles(scene, channels, mapping, roles) -> dict:
+    found = channels.match(scene, mapping)
+    fittable = {r: ch for r, ch in found.items() if any(r.startswith(p) for p in _ROLES)}
+    if roles is None:
+        chosen = fittable
+    else:
+        missing = [r for r in roles if r not in fittable]
+        if missing:
+            raise SceneError("roles", f"no acceleration or force channel for {missing}; the channels "
+                                      f"match: {', '.join(fittable) or '(none)'}")
+        chosen = {r: fittable[r] for r in roles}
+    if not chosen:
+        wanted = ", ".join(f"accel_{v.name}" for v in scene.vehicles)
+        raise SceneError(channels.source, f"no channel to fit: name them {wanted} or force (or pass "
+                                          f"mapping={{role: channel}}); the channels are: "
+                                          f"{', '.join(channels.names)}")
+    return chosen
+
+
+def _samples(channels, window):
+    t = channels.t
+    t0, t1 = (max(0.0, float(t[0])), float(t[-1])) if window is None else (float(w) for w in window)
+    if not (float(t[0]) - 1e-12 <= t0 < t1 <= float(t[-1]) + 1e-12):
+        raise SceneError("window", f"the window ({t0:g}, {t1:g}) s must lie inside the record "
+                                   f"({float(t[0]):g}, {float(t[-1]):g}) s")
+    inside = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
+    return t[inside], inside
+
+
+def _weights(measured: dict, given: dict) -> dict:
+    unknown = set(given) - set(measured)
+    if unknown:
+        raise SceneError("weights", f"{sorted(unknown)} are not fitted roles: {list(measured)}")
+    out = {}
+    for role, values in measured.items():
+        peak = float(np.max(np.abs(values)))
+        w = float(given[role]) if role in given else (1.0 / peak if peak > 0 else 0.0)
+        if not (w > 0 and math.isfinite(w)):
+            raise SceneError(f"weights.{role}", f"a positive finite factor (the measured channel is "
+                                                f"zero: give its weight), got {w!r}")
+        out[role] = w
+    return out
+
+
+def _simulated(res, t: np.ndarray, roles: dict) -> dict:
+    """The result's acceleration and force on ``t`` (time from first contact); zero after the end
+    for a scene without braking."""
+    t_sim = res.t - _first_contact(res)
+    names = [v.name for v in res.scene.vehicles]
+    braked = any(v.brake is not None for v in res.scene.vehicles)
+    if braked and t[-1] > t_sim[-1] + 1e-12:
+        raise SimulationError(f"the scene has braking and its simulation ends at {t_sim[-1]:.6g} s, "
+                              f"before the fitted window ({t[-1]:.6g} s): pass a shorter window or a "
+                              f"later t_end")
+    out = {}
+    for role in roles:
+        if role.startswith("accel_"):
+            series = res.a[:, names.index(role[len("accel_"):])]
+        else:
+            series = res.force[:, 0 if role == "force" else int(role.split("_")[1]) - 1]
+        out[role] = np.interp(t, t_sim, series, left=0.0, right=0.0)
+    return out
+
+
+def sampled_channels(result, t, *, source: str = "simulation"):
+    """What ideal sensors would record of ``result`` on the time base ``t`` [s] (0 = its first
+    contact): :class:`~lsc.analysis.channels.Channels` ``accel_<vehicle>``, ``force`` /
+    ``deformation`` (``force_2`` ... for later contacts), in the scene's unit system. Before
+    first contact all are zero; after the simulated crash (no braking) the accelerations and
+    forces are zero and the deformations follow the vehicles' uniform motion.
+    """
+    from .channels import Channel, Channels
+
+    sc = result.scene
+    if any(v.brake is not None for v in sc.vehicles):
+        raise SceneError("result", "sampled_channels needs a scene without braking (its motion after "
+                                   "the simulation is not known)")
+    t = np.asarray(t, float)
+    t_sim = result.t - _first_contact(result)
+    u = {k: sc.unit(k) for k in ("acceleration", "force", "length")}
+    out = {}
+    for i, v in enumerate(sc.vehicles):
+        name = f"accel_{v.name}"
+        out[name] = Channel(name, np.interp(t, t_sim, result.a[:, i], left=0.0, right=0.0),
+                            u["acceleration"], "acceleration", source)
+    for k in range(len(sc.contacts)):
+        suffix = "" if k == 0 else f"_{k + 1}"
+        d = np.interp(t, t_sim, result.deformation[:, k], left=0.0)
+        after = t > t_sim[-1]
+        d[after] += (result.v[-1, k] - result.v[-1, k + 1]) * (t[after] - t_sim[-1])
+        out[f"force{suffix}"] = Channel(f"force{suffix}", np.interp(t, t_sim, result.force[:, k], left=0.0,
+                                                                    right=0.0), u["force"], "force", source)
+        out[f"deformation{suffix}"] = Channel(f"deformation{suffix}", d, u["length"], "displacement", source)
+    return Channels(t, out, source)
+
+
+def _covariance(J: np.ndarray, r: np.ndarray, sizes, errors: str, params):
+    """``(cov, corr, lags)`` of the parameters from the Jacobian ``J`` (n, P) of the weighted
+    residuals ``r`` (n,), stacked by channel (``sizes``). ``"independent"``: ``σ² (JᵀJ)⁻¹``,
+    ``σ² = SSR/(n - P)``; ``"autocorrelated"``: the Newey–West sandwich ``(JᵀJ)⁻¹ S (JᵀJ)⁻¹``,
+    ``S`` the Bartlett-weighted sum of the lagged products of ``J_t r_t`` within each channel,
+    over ``lags`` (per channel: twice the lag where the residuals' autocorrelation first turns
+    negative), times ``n/(n - P)``."""
+    n, P = J.shape
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not sv[-1] > _RANK_TOLERANCE * sv[0]:
+        raise SceneError("params", f"the channels cannot tell the parameters {list(params)} apart "
+                                   f"(their Jacobian columns are dependent): fit fewer parameters")
+    inv = np.linalg.inv(J.T @ J)
+    if errors == "independent":
+        cov, lags = (r @ r) / (n - P) * inv, [0] * len(sizes)
+    else:
+        meat, lags, start = np.zeros((P, P)), [], 0
+        for size in sizes:
+            part, lag = _lagged_products(J[start:start + size], r[start:start + size])
+            meat += part
+            lags.append(lag)
+            start += size
+        cov = inv @ meat @ inv * n / (n - P)
+    se = np.sqrt(np.diag(cov))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.where(np.outer(se, se) > 0, cov / np.outer(se, se), np.eye(P))
+    return cov, corr, lags
+
+
+def _lagged_products(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, int]:
+    """One channel's Newey–West sum ``Σ_l w_l (Γ_l + Γ_lᵀ)`` (Bartlett ``w_l = 1 - l/(L+1)``) and
+    its bandwidth ``L``."""
+    g = J * r[:, None]
+    meat = g.T @ g
+    power = float(r @ r)
+    if power == 0.0:
+        return meat, 0
+    rho = np.correlate(r, r, "full")[r.size - 1:] / power
+    negative = np.nonzero(rho < 0)[0]
+    lag = min(r.size // 4, 2 * int(negative[0] if negative.size else r.size))
+    for l in range(1, lag + 1):
+        G = g[l:].T @ g[:-l]
+        meat += (1.0 - l / (lag + 1)) * (G + G.T)
+    return meat, lag
+
+
+def _unit(scene: Scene, path: str) -> str:
+    kind = path_kind(path)
+    return scene.unit(kind) if kind and kind != "dimensionless" else ""
+
+
+# ---------------------------------------------------------------------------------- TOML
+
+_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def scene_toml(scene, path=None) -> str:
+    """A scene as TOML text that :meth:`lsc.Scene.load` reads back to the same scene (written to
+    ``path`` too, if given). Relative CSV paths are made absolute (the scene's ``base_dir``), so the
+    file can be written anywhere."""
+    sc = Scene.load(scene)
+    src = _absolute_csv(sc.source, sc.base_dir)
+    lines = [f"{_key(k)} = {_value(v)}" for k, v in src.items() if not _is_table(v) and not _is_tables(v)]
+    for k, v in src.items():
+        if _is_table(v):
+            lines += ["", f"[{_key(k)}]"] + [f"{_key(a)} = {_value(b)}" for a, b in v.items()]
+        elif _is_tables(v):
+            for item in v:
+                lines += ["", f"[[{_key(k)}]]"] + [f"{_key(a)} = {_value(b)}" for a, b in item.items()]
+    text = "\n".join(lines) + "\n"
+    if path is not None:
+        Path(path).write_text(text, encoding="utf-8")
+    return text
+
+
+def _is_table(v) -> bool:
+    return isinstance(v, dict)
+
+
+def _is_tables(v) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
+
+
+def _key(k) -> str:
+    k = str(k)
+    return k if _BARE.match(k) else json.dumps(k)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        return repr(v) if math.isfinite(v) else ("nan" if v != v else ("inf" if v > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{_key(a)} = {_value(b)}" for a, b in v.items()) + " }"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    raise SceneError("", f"cannot write {type(v).__name__} {v!r} as TOML")
+
+
+def _absolute_csv(node, base_dir):
+    if isinstance(node, dict):
+        return {k: (str((Path(base_dir or ".") / v).resolve()) if k == "csv" and isinstance(v, str)
+                    else _absolute_csv(v, base_dir)) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_absolute_csv(x, base_dir) for x in node]
+    return node
