@@ -7,6 +7,9 @@
            [--out DIR] [--no-plots] [--no-progress] [--overwrite]
     lsc compare SCENE DATA [--method M] [--cfc C] [--time-zero T] [--out DIR] [--no-plots]
                 [--overwrite]
+    lsc fit SCENE DATA --param PATH [--param ...] [--initial PATH=V] [--bounds PATH=LO:HI]
+            [--method M] [--cfc C] [--time-zero T] [--errors autocorrelated|independent]
+            [--out DIR] [--no-plots] [--overwrite]
     lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...] [--method diffrax|finite-difference]
                     [--rtol R] [--backend B] [--plot FILE] [--plot-metric M] [--swing R] [--json FILE]
                     [--overwrite]
@@ -28,7 +31,7 @@ from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
 __all__ = ["add_bound", "cmd_bound", "add_mc", "cmd_mc", "add_sensitivity", "cmd_sensitivity",
-           "add_compare", "cmd_compare", "COMMANDS", "load_with_uncertainty"]
+           "add_compare", "cmd_compare", "add_fit", "cmd_fit", "COMMANDS", "load_with_uncertainty"]
 
 
 def _number_or_quantity(text: str):
@@ -316,5 +319,93 @@ def cmd_compare(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- lsc fit
+#: The files ``lsc fit --out DIR`` writes.
+FIT_FILES = ("fitted.toml", "fit.json", "fit.png")
+
+
+def _path_value(text: str) -> tuple[str, float]:
+    """``PATH=VALUE`` (a number in the scene's units)."""
+    path, sep, value = text.partition("=")
+    try:
+        if not sep or not path.strip():
+            raise ValueError
+        return path.strip(), float(value)
+    except ValueError:
+        raise SceneError("initial", f"expected PATH=NUMBER (e.g. contacts.0.loading.stiffness="
+                                    f"30000), got {text!r}") from None
+
+
+def _path_bounds(text: str) -> tuple[str, tuple[float, float]]:
+    """``PATH=LO:HI`` (numbers in the scene's units)."""
+    path, sep, rng = text.partition("=")
+    lo, colon, hi = rng.partition(":")
+    try:
+        if not sep or not colon or not path.strip():
+            raise ValueError
+        return path.strip(), (float(lo), float(hi))
+    except ValueError:
+        raise SceneError("bounds", f"expected PATH=LO:HI (e.g. contacts.0.unloading.restitution="
+                                   f"0:1), got {text!r}") from None
+
+
+def add_fit(sub) -> None:
+    """Declare ``lsc fit``."""
+    from ..scene import METHODS
+    p = sub.add_parser("fit", help="fit scene parameters to measured test channels (least squares)",
+                       description="Solve the scene repeatedly and fit the given parameters "
+                       "(dotted paths: a stiffness, a loading-table force scale, a restitution, a "
+                       "speed, a mass) to the test's acceleration and force channels by least "
+                       "squares; print the fitted values with standard errors, their correlation "
+                       "and the ISO/TS 18571 rating of the fit.")
+    p.add_argument("scene", metavar="SCENE", help="a scene TOML file or a packaged scene name "
+                                                  "(its values are the starting values)")
+    p.add_argument("data", metavar="DATA", help="the test's channels (table or ISO-MME data set)")
+    p.add_argument("--param", action="append", required=True, metavar="PATH",
+                   help="a fitted parameter, e.g. contacts.0.loading.stiffness (repeatable)")
+    p.add_argument("--initial", action="append", default=[], metavar="PATH=V",
+                   help="a starting value in the scene's units (repeatable)")
+    p.add_argument("--bounds", action="append", default=[], metavar="PATH=LO:HI",
+                   help="bounds of a parameter in the scene's units (repeatable)")
+    p.add_argument("--method", choices=METHODS, default=None, help="backend (default: the scene's)")
+    p.add_argument("--cfc", type=float, default=None, metavar="C",
+                   help="filter every channel with the SAE J211 CFC filter of this class")
+    p.add_argument("--time-zero", type=float, default=0.0, metavar="T",
+                   help="the file time [s] of first contact (default 0)")
+    p.add_argument("--errors", choices=("autocorrelated", "independent"), default="autocorrelated",
+                   help="standard errors allowing for residuals correlated in time (default) or "
+                        "assuming independent ones")
+    p.add_argument("--out", metavar="DIR", help="write fitted.toml (the fitted scene), fit.json "
+                                                "and fit.png (the overlay) here")
+    p.add_argument("--no-plots", action="store_true", help="with --out: no fit.png")
+    add_overwrite_option(p)
+    p.set_defaults(func=cmd_fit)
+
+
+def cmd_fit(args) -> int:
+    """Run ``lsc fit``: print the fit (and write the fitted scene, JSON and the overlay)."""
+    from ..cli import resolve_scene
+    from .channels import read_channels
+    from .fit import fit
+    scene = resolve_scene(args.scene)
+    initial = dict(_path_value(t) for t in args.initial)
+    bounds = dict(_path_bounds(t) for t in args.bounds)
+    out = Path(args.out) if args.out else None
+    files = [out / f for f in FIT_FILES] if out else []
+    refuse_existing(files, args.overwrite)
+    channels = read_channels(args.data, time_zero=args.time_zero, cfc=args.cfc)
+    result = fit(scene, channels, args.param, initial=initial or None, bounds=bounds or None,
+                 method=args.method, errors=args.errors)
+    print(result.summary())
+    if out:
+        writers = {out / "fitted.toml": result.to_toml, out / "fit.json": result.to_json}
+        if not args.no_plots:
+            writers[out / "fit.png"] = \
+                lambda file: result.comparison().figure().savefig(file, dpi=120)
+        written = write_files(writers, overwrite=args.overwrite, replaces=files)
+        print(f"\nwritten to {out}/: " + ", ".join(p.name for p in written))
+    return 0
+
+
 #: The subcommands this module adds to ``lsc.cli.COMMANDS``.
-COMMANDS = [add_bound, add_mc, add_sensitivity, add_compare]
+COMMANDS = [add_bound, add_mc, add_sensitivity, add_compare, add_fit]
