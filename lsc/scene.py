@@ -341,13 +341,15 @@ def _qty(spec: dict, key: str, kind: str, ctx: _Ctx, path: str, *, default=_MISS
 MAGNITUDES = (1e-100, 1e100)
 
 
-def _check_magnitude(x: float, path: str, unit: str, what: str = "") -> None:
-    """SceneError at ``path`` unless ``x`` is 0 or its magnitude is within :data:`MAGNITUDES`."""
+def _check_magnitude(x: float, path: str, unit: str, what: str = "", lower: bool = True) -> None:
+    """SceneError at ``path`` unless ``x`` is 0 or its magnitude is within :data:`MAGNITUDES`
+    (``lower=False``: only at most the upper end)."""
     lo, hi = MAGNITUDES
-    if x != 0 and not lo <= abs(x) <= hi:
+    if x != 0 and (abs(x) > hi or (lower and abs(x) < lo)):
+        span = f"from {lo:g} to {hi:g} {unit} (or 0)" if lower else f"of at most {hi:g} {unit}"
         raise SceneError(path, f"{what}{_fmt(x, unit)} is outside the range lsc computes with: a "
-                               f"magnitude from {lo:g} to {hi:g} {unit} (or 0), so that the energies, "
-                               "forces and times formed from it stay finite, normal floats".replace("  ", " "))
+                               f"magnitude {span}, so that the energies, forces and times formed from "
+                               "it stay finite, normal floats")
 
 
 # ----------------------------------------------------------------- tables and curves
@@ -736,7 +738,9 @@ def _vehicle(spec, i: int, ctx: _Ctx) -> Vehicle:
         mass = _qty(spec, "mass", "mass", ctx, path, minimum=0.0)
     else:
         raise SceneError(path, "a vehicle needs its weight (or its mass)")
-    speed = _qty(spec, "speed", "velocity", ctx, path)
+    speed = _qty(spec, "speed", "velocity", ctx, path, bounded=False)
+    # a tiny speed is harmless (it is almost 0); the closing speeds are held in _check_closing
+    _check_magnitude(speed, _p(path, "speed"), UNITS[ctx.units]["velocity"], lower=False)
     brake = None
     if "brake" in spec:
         bp = _p(path, "brake")
@@ -811,6 +815,18 @@ def _gravity(src: dict, ctx: _Ctx) -> float:
 #: positions and of absolute times once the gap has closed, relative to the crush and the pulse)
 #: stays below 1e-8 of it.
 GAP_RATIO = 1e-8 / float(np.finfo(float).eps)
+
+
+def _check_relative_speeds(vehicles: tuple[Vehicle, ...], ctx: _Ctx) -> None:
+    """The speeds may not all differ by less than the smallest magnitude of :data:`MAGNITUDES`:
+    every closing speed, crush and energy of the crash would be below it."""
+    u = np.array([v.speed for v in vehicles])
+    spread = float(u.max() - u.min())
+    if 0 < spread < MAGNITUDES[0]:
+        unit = UNITS[ctx.units]["velocity"]
+        raise SceneError("vehicles[0].speed", f"the speeds differ by only {_fmt(spread, unit)}: the "
+                         f"closing speeds must reach {_fmt(MAGNITUDES[0], unit)} for the energies and "
+                         "crushes of the crash to be normal floats")
 
 
 def _relative_energy(vehicles: tuple[Vehicle, ...]) -> float:
@@ -920,6 +936,7 @@ def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
                          "(used by lsc.analysis.monte_carlo / `lsc mc`), got "
                          f"{_shown(src['uncertainty'])}")
     _check_closing(vehicles, ctx)
+    _check_relative_speeds(vehicles, ctx)
     _check_gaps(vehicles, contacts, ctx)
     return Scene(name, ctx.units, ctx.g, vehicles, contacts, solver, source, base_dir)
 

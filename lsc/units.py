@@ -47,7 +47,7 @@ _NUMBER = re.compile(rf"\s*({_NUMBER_TEXT})\s*(.*?)\s*$", re.IGNORECASE)
 # optional power (``lbf*s/ft^2``, ``m/s²``, ``N·s/m``, ``%``); text after it (``"# note"``,
 # ``"± 1"``, a second number) does not match. Parenthesised powers match here and are refused by
 # _safe, with its own message.
-_UNIT_NAME = r"(?:[^\W\d_]|[°%])[\w°]*(?:\s*(?:\^|\*\*)\s*[+-]?[\w.()^]+)?"
+_UNIT_NAME = r"(?:[^\W\d_]|[°%])[\w°⁻]*(?:\s*(?:\^|\*\*)\s*[+-]?[\w.()^]+)?"
 _UNIT_TEXT = re.compile(rf"\*?\s*{_UNIT_NAME}(?:(?:\s*[*/·⋅]\s*|\s+){_UNIT_NAME})*")
 
 #: The accepted form of a quantity written as text, for error messages.
