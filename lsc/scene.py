@@ -383,13 +383,13 @@ def _cell(value, kind: str, factor: float | None, ctx: _Ctx, path: str) -> float
 
 
 def _check_points(points: np.ndarray, path: str, ctx: _Ctx) -> np.ndarray:
-    """Hold every deformation and force of a table to :data:`MAGNITUDES` (SceneError at the row)."""
-    lo, hi = MAGNITUDES
-    bad = (points != 0) & ~((np.abs(points) >= lo) & (np.abs(points) <= hi))
+    """Hold every deformation and force of a table to at most the upper end of
+    :data:`MAGNITUDES` (SceneError at the row); a tiny value is almost 0, and harmless."""
+    bad = np.abs(points) > MAGNITUDES[1]
     if np.any(bad):
         i, j = (int(a) for a in np.argwhere(bad)[0])
         unit = UNITS[ctx.units]["length" if j == 0 else "force"]
-        _check_magnitude(float(points[i, j]), path, unit, f"row {i}: ")
+        _check_magnitude(float(points[i, j]), path, unit, f"row {i}: ", lower=False)
     return points
 
 
