@@ -2,28 +2,11 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from .errors import SceneError
 from .model import HybridModel
 from .scene import Scene
 from . import solvers
 
 __all__ = ["solve"]
-
-
-def _check_option(name: str, value):
-    """Validate the numeric solver options shared by every backend."""
-    if name in ("rtol", "atol", "dt", "t_end", "first_step"):
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
-                or not np.isfinite(value) or value <= 0:
-            raise SceneError(f"solver.{name}", f"{name} must be a positive finite number, "
-                             f"got {value!r}")
-    if name in ("max_events", "max_steps", "n_samples"):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise SceneError(f"solver.{name}", f"{name} must be a positive integer, got {value!r}")
-    if name == "integrator" and not isinstance(value, str):
-        raise SceneError("solver.integrator", f"integrator must be a name, got {value!r}")
 
 
 def solve(scene, method: str | None = None, **options):
@@ -38,12 +21,14 @@ def solve(scene, method: str | None = None, **options):
         ``"reference"`` (the paper's fixed-step algorithm), ``"exact"``, ``"diffrax"``.
         Overrides the scene's ``[solver] method`` (the scene's solver options that do not apply
         to the method given here are then left out). With ``auto``, options that do not apply to
-        the backend it picks (a tolerance, for an exact backend) are left out.
+        the backend it picks (a tolerance, for an exact backend) are left out; a name that no
+        backend accepts is a :class:`~lsc.errors.SceneError` with every method.
     **options
         Backend options, overriding the scene's ``[solver]`` table: ``rtol``, ``atol``,
         ``integrator`` (SciPy: ``"DOP853"`` default, ``"RK45"``, ``"LSODA"``, ``"Radau"``, ...),
         ``dt`` [s] (reference), ``t_end`` [s] (simulate until then; must not cut the crash),
-        ``max_events``, ``n_samples`` (points in the sampled series).
+        ``max_events``, ``n_samples`` (points in the sampled series, at most
+        :data:`lsc.solvers.MAX_SAMPLES`); ranges in :func:`lsc.solvers.check_option`.
 
     Returns
     -------
@@ -58,6 +43,9 @@ def solve(scene, method: str | None = None, **options):
 def resolve(sc: Scene, method: str | None, options: dict) -> tuple[str, dict]:
     """The backend and the validated options a solve of scene ``sc`` uses (see :func:`solve`)."""
     requested = method or sc.solver.method
+    for name in options:  # an unknown name is an error whatever the method (auto included)
+        if name not in solvers.ALL_OPTIONS:
+            solvers.check_option(name, options[name])
     backend = solvers.pick(sc, requested)
     accepted = solvers.options_of(backend)
     opts = dict(sc.solver.options)
@@ -69,6 +57,5 @@ def resolve(sc: Scene, method: str | None, options: dict) -> tuple[str, dict]:
         # auto may pick an exact backend, for which tolerances are moot
         opts = {k: v for k, v in opts.items() if k in accepted}
     for name, value in opts.items():
-        if value is not None:
-            _check_option(name, value)
+        solvers.check_option(name, value)
     return backend, opts

@@ -198,12 +198,17 @@ def load_scene(obj, *, base_dir=None) -> Scene:
 # (implementation below: _load, _with_values)
 
 import difflib as _difflib
+import errno as _errno
 import math as _math
 import os as _os
+import re as _re
+import stat as _stat
 import tomllib as _tomllib
 from collections.abc import Mapping as _Mapping
 
-from .units import _expected, _type_name, to_system as _to_system, unit_factor as _unit_factor
+from .solvers import check_option as _check_option
+from .units import _expected, _type_name, parse_number as _parse_number, to_system as _to_system, \
+    unit_factor as _unit_factor
 
 #: Solver methods accepted in ``[solver] method``.
 METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
@@ -307,10 +312,12 @@ def _choice(value, accepted: tuple[str, ...], path: str, what: str, aliases=None
 
 
 def _qty(spec: dict, key: str, kind: str, ctx: _Ctx, path: str, *, default=_MISSING,
-         minimum: float | None = None, strict: bool = True, hint: str | None = None) -> float:
+         minimum: float | None = None, strict: bool = True, hint: str | None = None,
+         bounded: bool | None = None) -> float:
     """Read ``spec[key]`` as a ``kind`` quantity in the scene's units, with a lower bound.
 
-    ``minimum`` with ``strict`` means ``> minimum``; otherwise ``>= minimum``.
+    ``minimum`` with ``strict`` means ``> minimum``; otherwise ``>= minimum``. ``bounded``
+    (default: for every kind but plain numbers) also holds the value to :data:`MAGNITUDES`.
     """
     p = _p(path, key)
     if key not in spec:
@@ -322,7 +329,27 @@ def _qty(spec: dict, key: str, kind: str, ctx: _Ctx, path: str, *, default=_MISS
         unit = UNITS[ctx.units][kind]
         op = ">" if strict else ">="
         raise SceneError(p, f"must be {op} {minimum:g}, got {_fmt(x, unit)}")
+    if bounded if bounded is not None else kind != "dimensionless":
+        _check_magnitude(x, p, UNITS[ctx.units][kind])
     return x
+
+
+#: The magnitudes a scene's quantities may have, in its unit system (or exactly 0): a product or
+#: quotient of three of them (an energy m v², a force v √(k m), a time √(m/k), ...) lies between
+#: 1e-300 and 1e300, inside the range of normal floats (2.2e-308 to 1.8e308), so no result
+#: overflows to inf or loses its precision to a subnormal.
+MAGNITUDES = (1e-100, 1e100)
+
+
+def _check_magnitude(x: float, path: str, unit: str, what: str = "", lower: bool = True) -> None:
+    """SceneError at ``path`` unless ``x`` is 0 or its magnitude is within :data:`MAGNITUDES`
+    (``lower=False``: only at most the upper end)."""
+    lo, hi = MAGNITUDES
+    if x != 0 and (abs(x) > hi or (lower and abs(x) < lo)):
+        span = f"from {lo:g} to {hi:g} {unit} (or 0)" if lower else f"of at most {hi:g} {unit}"
+        raise SceneError(path, f"{what}{_fmt(x, unit)} is outside the range lsc computes with: a "
+                               f"magnitude {span}, so that the energies, forces and times formed from "
+                               "it stay finite, normal floats")
 
 
 # ----------------------------------------------------------------- tables and curves
@@ -355,6 +382,17 @@ def _cell(value, kind: str, factor: float | None, ctx: _Ctx, path: str) -> float
     return x * (1.0 if factor is None else factor)
 
 
+def _check_points(points: np.ndarray, path: str, ctx: _Ctx) -> np.ndarray:
+    """Hold every deformation and force of a table to at most the upper end of
+    :data:`MAGNITUDES` (SceneError at the row); a tiny value is almost 0, and harmless."""
+    bad = np.abs(points) > MAGNITUDES[1]
+    if np.any(bad):
+        i, j = (int(a) for a in np.argwhere(bad)[0])
+        unit = UNITS[ctx.units]["length" if j == 0 else "force"]
+        _check_magnitude(float(points[i, j]), path, unit, f"row {i}: ", lower=False)
+    return points
+
+
 def _points(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
     """A list of ``[deformation, force]`` pairs → an (n, 2) array in scene units."""
     if not isinstance(value, list):
@@ -366,7 +404,7 @@ def _points(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
             raise SceneError(f"{path}[{i}]", f"expected a [deformation, force] pair, got {_shown(row)}")
         out[i, 0] = _cell(row[0], "length", fd, ctx, f"{path}[{i}][0]")
         out[i, 1] = _cell(row[1], "force", ff, ctx, f"{path}[{i}][1]")
-    return out
+    return _check_points(out, path, ctx)
 
 
 def _expand(file: Path) -> Path:
@@ -377,6 +415,37 @@ def _expand(file: Path) -> Path:
         return file
 
 
+#: Largest scene file read [bytes] (a scene is a few kB; its tables can be long).
+MAX_SCENE_BYTES = 10 * 2**20
+#: Largest CSV file read [bytes] (a million rows of two numbers fit easily).
+MAX_CSV_BYTES = 64 * 2**20
+# A header cell holds a word (a data cell like "1_0" or "1,2e" does not make a row a header).
+_HEADER_CELL = _re.compile(r"[^\W\d_]{2,}|^[^\W\d_]$")
+
+
+class _TooLarge(ValueError):
+    """A file that is not a regular file or is larger than the limit for its kind."""
+
+
+def _read_text(file: Path, limit: int, what: str) -> str:
+    """The text of a regular ``file`` of at most ``limit`` bytes (UTF-8, BOM skipped).
+
+    Devices, pipes and folders are refused before they are opened (``/dev/zero`` never ends, a
+    FIFO would block); raises :class:`_TooLarge`, or what opening and decoding raise.
+    """
+    st = file.stat()
+    if _stat.S_ISDIR(st.st_mode):
+        raise IsADirectoryError(_errno.EISDIR, "is a folder, not a file", str(file))
+    if not _stat.S_ISREG(st.st_mode):
+        raise _TooLarge(f"{file} is not a regular file (a device, pipe or socket); "
+                        f"give the path of a {what}")
+    with open(file, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise _TooLarge(f"{file} is larger than {limit // 2**20} MB, the most lsc reads from a {what}")
+    return data.decode("utf-8-sig")
+
+
 def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
     """Two numeric columns (deformation, force) from a CSV file; a header row is skipped."""
     if not isinstance(value, (str, _os.PathLike)) or not str(value).strip():
@@ -385,11 +454,13 @@ def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
     if not file.is_absolute():
         file = ctx.base_dir / file
     try:
-        text = file.read_text(encoding="utf-8-sig")
+        text = _read_text(file, MAX_CSV_BYTES, "CSV file")
     except FileNotFoundError:
         raise SceneError(path, f"file not found: {file} (expected a CSV file of two columns, "
                                "deformation and force; a relative path is taken from the scene "
                                "file's folder)") from None
+    except _TooLarge as e:
+        raise SceneError(path, str(e)) from None
     except UnicodeDecodeError:
         raise SceneError(path, f"{file} is not a text (CSV) file") from None
     except (OSError, ValueError) as e:
@@ -404,23 +475,19 @@ def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
         cells = [c.strip().strip('"').strip("'").strip() for c in line.split(sep)]
         while cells and not cells[-1]:
             cells.pop()
-        nums = []
-        for c in cells:
-            try:
-                nums.append(float(c))
-            except ValueError:
-                nums.append(None)
+        nums = [_parse_number(c) for c in cells]
         if first:
             first = False
-            if all(x is None for x in nums):
-                continue  # header row
+            if all(x is None and _HEADER_CELL.search(c) for x, c in zip(nums, cells)):
+                continue  # header row: no number, and words in every cell
         if len(cells) != 2:
             raise SceneError(path, f"{file}, line {lineno}: expected 2 columns (deformation, force), "
                                    f"got {len(cells)}")
         for c, x in zip(cells, nums):
             if x is None:
                 raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a number; expected '
-                                       "two numeric columns (deformation, force)")
+                                       "two numeric columns (deformation, force), each cell a plain "
+                                       "decimal number such as 1.2, -3 or 4.5e3")
             if not _math.isfinite(x):
                 raise SceneError(path, f'{file}, line {lineno}: "{c}" is not a finite number; '
                                        "expected two finite numeric columns (deformation, force)")
@@ -435,7 +502,7 @@ def _read_csv(value, path: str, factors, ctx: _Ctx) -> np.ndarray:
         arr[:, 1] *= ff
     if not np.all(np.isfinite(arr)):
         raise SceneError(path, f"{file}: values too large after unit conversion")
-    return arr
+    return _check_points(arr, path, ctx)
 
 
 def _loading(spec, path: str, ctx: _Ctx) -> Curve:
@@ -467,11 +534,12 @@ def _loading(spec, path: str, ctx: _Ctx) -> Curve:
     except ValueError as e:
         raise SceneError(sub, str(e)) from None
     if "scale" in spec:
-        factor = _qty(spec, "scale", "dimensionless", ctx, path, minimum=0.0)
+        factor = _qty(spec, "scale", "dimensionless", ctx, path, minimum=0.0, bounded=True)
         try:
             curve = curve.scaled(factor)
         except ValueError as e:
             raise SceneError(_p(path, "scale"), str(e)) from None
+        _check_points(np.column_stack([curve.d, curve.f]), _p(path, "scale"), ctx)
     return curve
 
 
@@ -538,6 +606,15 @@ def _restitution_target(spec: dict, path: str, ctx: _Ctx) -> float:
     return e
 
 
+#: Unit kind of each damping law's damping coefficient, and what to say when another is given.
+_DAMPING_KINDS = {
+    "kelvin": ("damping", "Kelvin's c multiplies the closing rate: F = k D + c dD/dt"),
+    "hunt-crossley": ("slowness", "Hunt–Crossley's α multiplies the closing rate in "
+                                  "F = k D^n (1 + α dD/dt): it is not a Kelvin damping c"),
+    "brach": ("damping_per_length", "Brach's c multiplies D dD/dt in F = k D + c D dD/dt"),
+}
+
+
 def _damping_law(law: str):
     """The builder of a spring–dashpot law from a contact's keys."""
     def build(spec: dict, path: str, ctx: _Ctx) -> Damping:
@@ -549,16 +626,17 @@ def _damping_law(law: str):
             k = _qty(spec, "stiffness", kind, ctx, path, minimum=0.0)
         else:
             k = _qty(spec, "stiffness", "stiffness", ctx, path, minimum=0.0)
-        dkind = {"kelvin": "damping", "hunt-crossley": "slowness",
-                 "brach": "damping_per_length"}[law]
+        dkind, dhint = _DAMPING_KINDS[law]
         if law == "brach":
-            c1 = _qty(spec, "damping", dkind, ctx, path, default=0.0, minimum=0.0, strict=False)
+            c1 = _qty(spec, "damping", dkind, ctx, path, default=0.0, minimum=0.0, strict=False,
+                      hint=dhint)
             if ("damping_restitution" in spec) == ("restitution" in spec):
                 raise SceneError(path, "Brach's law needs exactly one of damping_restitution (c2) "
                                        "or restitution (the target e, which sets c2)")
             if "restitution" in spec:
                 return Damping(law, k, n, c1, None, _restitution_target(spec, path, ctx))
-            c2 = _qty(spec, "damping_restitution", dkind, ctx, path, minimum=0.0, strict=False)
+            c2 = _qty(spec, "damping_restitution", dkind, ctx, path, minimum=0.0, strict=False,
+                      hint=dhint)
             return Damping(law, k, n, c1, c2, None)
         if ("damping" in spec) == ("restitution" in spec):
             raise SceneError(path, f"the {law} law needs exactly one of damping or restitution "
@@ -566,7 +644,7 @@ def _damping_law(law: str):
         if "restitution" in spec:
             return Damping(law, k, n, None, None, _restitution_target(spec, path, ctx))
         return Damping(law, k, n, _qty(spec, "damping", dkind, ctx, path, minimum=0.0,
-                                       strict=False), None, None)
+                                       strict=False, hint=dhint), None, None)
     return build
 
 
@@ -655,19 +733,20 @@ def _vehicle(spec, i: int, ctx: _Ctx) -> Vehicle:
         hint = f'a weight is a force: write it in "lbf" (pound-force), or give mass = "{spec["weight"]}" instead'
         weight = _qty(spec, "weight", "force", ctx, path, minimum=0.0, hint=hint)
         mass = weight / ctx.g
-        if not (_math.isfinite(mass) and mass > 0):
-            raise SceneError(_p(path, "weight"), f"weight / g is not a usable mass ({mass:g})")
+        _check_magnitude(mass, _p(path, "weight"), UNITS[ctx.units]["mass"], "the mass weight / g = ")
     elif "mass" in spec:
         mass = _qty(spec, "mass", "mass", ctx, path, minimum=0.0)
     else:
         raise SceneError(path, "a vehicle needs its weight (or its mass)")
-    speed = _qty(spec, "speed", "velocity", ctx, path)
+    speed = _qty(spec, "speed", "velocity", ctx, path, bounded=False)
+    # a tiny speed is harmless (it is almost 0); the closing speeds are held in _check_closing
+    _check_magnitude(speed, _p(path, "speed"), UNITS[ctx.units]["velocity"], lower=False)
     brake = None
     if "brake" in spec:
         bp = _p(path, "brake")
         bspec = _table(spec["brake"], bp, _BRAKE_KEYS, "{ mu = 0.7, mu_static = 0.8 }")
-        mu = _qty(bspec, "mu", "dimensionless", ctx, bp, minimum=0.0)
-        mu_s = _qty(bspec, "mu_static", "dimensionless", ctx, bp, default=mu)
+        mu = _qty(bspec, "mu", "dimensionless", ctx, bp, minimum=0.0, bounded=True)
+        mu_s = _qty(bspec, "mu_static", "dimensionless", ctx, bp, default=mu, bounded=True)
         if mu_s < mu:
             raise SceneError(_p(bp, "mu_static"), f"must be >= mu ({mu:g}), got {mu_s:g}")
         brake = Brake(mu, mu_s)
@@ -697,6 +776,8 @@ def _solver(spec, ctx: _Ctx) -> SolverSettings:
             if n != int(n):
                 raise SceneError(_p(path, key), f"must be a whole number >= 1, got {n:g}")
             options[key] = int(n)
+    for key, value in options.items():
+        _check_option(key, value)
     return SolverSettings(method, options)
 
 
@@ -711,6 +792,96 @@ def _units_name(value) -> str:
     hint = f'; did you mean "{close[0]}"?' if close else ";"
     raise SceneError("units", f"unknown unit system {_shown(value)}{hint} accepted: "
                               f'"SI" (m, s, kg, N) or "US" (ft, s, slug, lbf)')
+
+
+#: The accepted values of ``g``, relative to standard gravity: from the Moon's (0.17) with room
+#: to spare, to a hundred times Earth's.
+G_RANGE = (0.01, 100.0)
+
+
+def _gravity(src: dict, ctx: _Ctx) -> float:
+    """The scene's ``g`` [acceleration], checked before any weight is divided by it."""
+    g = _qty(src, "g", "acceleration", ctx, "", minimum=0.0, bounded=False)
+    lo, hi = (r * STANDARD_G[ctx.units] for r in G_RANGE)
+    if not lo <= g <= hi:
+        unit = UNITS[ctx.units]["acceleration"]
+        raise SceneError("g", f"must be the local acceleration of gravity, between {G_RANGE[0]:g} and "
+                              f"{G_RANGE[1]:g} times standard gravity ({_fmt(lo, unit)} to "
+                              f"{_fmt(hi, unit)}), got {_fmt(g, unit)}")
+    return g
+
+
+#: Largest gap, relative to the largest crush its contact can reach: ε × gap (the rounding of
+#: positions and of absolute times once the gap has closed, relative to the crush and the pulse)
+#: stays below 1e-8 of it.
+GAP_RATIO = 1e-8 / float(np.finfo(float).eps)
+
+
+def _check_relative_speeds(vehicles: tuple[Vehicle, ...], ctx: _Ctx) -> None:
+    """The speeds may not all differ by less than the smallest magnitude of :data:`MAGNITUDES`:
+    every closing speed, crush and energy of the crash would be below it."""
+    u = np.array([v.speed for v in vehicles])
+    spread = float(u.max() - u.min())
+    if 0 < spread < MAGNITUDES[0]:
+        unit = UNITS[ctx.units]["velocity"]
+        raise SceneError("vehicles[0].speed", f"the speeds differ by only {_fmt(spread, unit)}: the "
+                         f"closing speeds must reach {_fmt(MAGNITUDES[0], unit)} for the energies and "
+                         "crushes of the crash to be normal floats")
+
+
+def _relative_energy(vehicles: tuple[Vehicle, ...]) -> float:
+    """Kinetic energy in the centre-of-mass frame [energy]: the most any contact can absorb."""
+    m = np.array([v.mass for v in vehicles])
+    u = np.array([v.speed for v in vehicles])
+    u = u - np.dot(m, u) / m.sum()
+    return float(0.5 * np.dot(m, u * u))
+
+
+def _crush_bound(law, energy: float) -> float:
+    """The crush at which ``law``'s loading branch has absorbed ``energy`` [length]: the most the
+    contact can be crushed (damping only adds force while compressing); inf if it never does."""
+    if isinstance(law, Damping):
+        n = law.exponent
+        return float(((n + 1.0) * energy / law.stiffness) ** (1.0 / (n + 1.0)))
+    curve = law.loading
+    if curve.is_linear:
+        return float(np.sqrt(2.0 * energy / curve.stiffness))
+    hi = float(curve.d[-1])
+    if not curve.extends:
+        return hi if curve.cum_energy[-1] <= energy else _bisect_energy(curve, energy, hi)
+    while not curve.energy(hi) >= energy:
+        if hi > MAGNITUDES[1] ** 2:
+            return _math.inf
+        hi *= 2.0
+    return _bisect_energy(curve, energy, hi)
+
+
+def _bisect_energy(curve: Curve, energy: float, hi: float) -> float:
+    lo = 0.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid in (lo, hi):
+            break
+        lo, hi = (mid, hi) if curve.energy(mid) < energy else (lo, mid)
+    return hi
+
+
+def _check_gaps(vehicles: tuple[Vehicle, ...], contacts: tuple[Contact, ...], ctx: _Ctx) -> None:
+    """Refuse a gap so wide that, once it has closed, the rounding of positions and times (ε x gap)
+    hides the crush (and the pulse): at most :data:`GAP_RATIO` times the largest crush."""
+    energy = _relative_energy(vehicles)
+    if not energy > 0:
+        return  # closing only through braking: no crush scale to hold the gap to
+    unit = UNITS[ctx.units]["length"]
+    for k, c in enumerate(contacts):
+        crush = _crush_bound(c.law, energy)
+        if c.gap > GAP_RATIO * crush:
+            raise SceneError(f"contacts[{k}].gap", f"{_fmt(c.gap, unit)} is too wide for this crash to "
+                             f"be represented: the contact can be crushed by at most {_fmt(crush, unit)} "
+                             f"(all the kinetic energy of the relative motion), and after a gap of more "
+                             f"than {GAP_RATIO:.3g} times that (here {_fmt(GAP_RATIO * crush, unit)}) the "
+                             "rounding of positions and times exceeds 1e-8 of the crush and of the pulse; "
+                             "start the vehicles closer")
 
 
 def _check_closing(vehicles: tuple[Vehicle, ...], ctx: _Ctx) -> None:
@@ -741,7 +912,7 @@ def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
         raise SceneError("name", f"a name is text, got {_shown(name)}")
     ctx = _Ctx(_units_name(src.get("units", "SI")), base_dir)
     if "g" in src:
-        ctx.g = _qty(src, "g", "acceleration", ctx, "", minimum=0.0)
+        ctx.g = _gravity(src, ctx)
     vs = src.get("vehicles", _MISSING)
     if vs is _MISSING:
         raise SceneError("vehicles", "is required: a list of at least two vehicles, rear to front")
@@ -765,6 +936,8 @@ def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
                          "(used by lsc.analysis.monte_carlo / `lsc mc`), got "
                          f"{_shown(src['uncertainty'])}")
     _check_closing(vehicles, ctx)
+    _check_relative_speeds(vehicles, ctx)
+    _check_gaps(vehicles, contacts, ctx)
     return Scene(name, ctx.units, ctx.g, vehicles, contacts, solver, source, base_dir)
 
 
@@ -779,11 +952,13 @@ def _load(obj, *, base_dir=None) -> Scene:
     if isinstance(obj, (str, _os.PathLike)):
         file = _expand(Path(obj))
         try:
-            text = file.read_text(encoding="utf-8-sig")
+            text = _read_text(file, MAX_SCENE_BYTES, "scene file")
         except FileNotFoundError:
             extra = " (a string is read as a file path; parse TOML text with tomllib and pass the dict)" \
                 if isinstance(obj, str) and ("\n" in obj or "=" in obj) else ""
             raise SceneError("", f"scene file not found: {file}{extra}") from None
+        except _TooLarge as e:
+            raise SceneError("", str(e)) from None
         except (OSError, ValueError) as e:
             raise SceneError("", f"cannot read scene file {file}: {getattr(e, 'strerror', None) or e}") from None
         try:

@@ -16,7 +16,7 @@ from typing import Any
 
 from .errors import SceneError
 
-__all__ = ["to_system", "unit_factor", "registry", "KIND_EXAMPLES"]
+__all__ = ["to_system", "unit_factor", "registry", "parse_number", "KIND_EXAMPLES", "QUANTITY_FORM"]
 
 _REGISTRY = None
 
@@ -31,13 +31,37 @@ KIND_EXAMPLES: dict[str, tuple[str, ...]] = {
     "stiffness": ("24000 lbf/ft", "350 kN/m"),
     "energy": ("500 ft*lbf", "700 J"),
     "damping": ("300 lbf*s/ft", "4 kN*s/m"),
+    "slowness": ("0.2 s/ft", "0.6 s/m"),
+    "damping_per_length": ("20000 lbf*s/ft^2", "1 MN*s/m^2"),
     "dimensionless": ("0.4",),
 }
 
-# A leading number (what float() reads), then the unit expression.
-_NUMBER = re.compile(
-    r"\s*([+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf(?:inity)?))\s*(.*?)\s*$",
-    re.IGNORECASE)
+#: A plain decimal number: digits with an optional point and exponent (``1.2``, ``-3``, ``4.5e3``),
+#: or nan / inf (refused later as not finite). Stricter than float(), which also reads ``"1_0"``
+#: as 10 and non-ASCII digits.
+_NUMBER_TEXT = r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf(?:inity)?)"
+_PLAIN_NUMBER = re.compile(_NUMBER_TEXT, re.IGNORECASE)
+# A quantity: a plain number, then the unit expression (checked by _UNIT_TEXT).
+_NUMBER = re.compile(rf"\s*({_NUMBER_TEXT})\s*(.*?)\s*$", re.IGNORECASE)
+# A unit expression and nothing else: unit names joined by *, /, · or a space, each with an
+# optional power (``lbf*s/ft^2``, ``m/s²``, ``N·s/m``, ``%``); text after it (``"# note"``,
+# ``"± 1"``, a second number) does not match. Parenthesised powers match here and are refused by
+# _safe, with its own message.
+_UNIT_NAME = r"(?:[^\W\d_]|[°%])[\w°⁻]*(?:\s*(?:\^|\*\*)\s*[+-]?[\w.()^]+)?"
+_UNIT_TEXT = re.compile(rf"\*?\s*{_UNIT_NAME}(?:(?:\s*[*/·⋅]\s*|\s+){_UNIT_NAME})*")
+
+#: The accepted form of a quantity written as text, for error messages.
+QUANTITY_FORM = "exactly a number and a unit, with nothing after the unit"
+
+
+def parse_number(text: str) -> float | None:
+    """The float of ``text`` if it is a plain decimal number (see :data:`_NUMBER_TEXT`), else None.
+
+    Shared by quantity strings and CSV cells: ``"1_0"``, ``"0x10"`` and ``"١٠"`` are not numbers.
+    """
+    text = text.strip()
+    return float(text) if _PLAIN_NUMBER.fullmatch(text) else None
+
 
 # unit string → (dimensionality as a sorted tuple, pint Unit); filled on first use of each string
 _UNIT_CACHE: dict[str, tuple[tuple, Any]] = {}
@@ -111,15 +135,20 @@ def _describe(dim: tuple) -> str:
     return f"of dimension {text}"
 
 
+#: Names of the kinds whose key in :data:`lsc.scene.UNITS` is not plain English.
+_KIND_NAMES = {"slowness": "time per length", "damping_per_length": "damping per length"}
+
+
 def _a(kind: str) -> str:
-    return f"an {kind}" if kind[0] in "aeiou" else f"a {kind}"
+    name = _KIND_NAMES.get(kind, kind)
+    return f"an {name}" if name[0] in "aeiou" else f"a {name}"
 
 
 def _expected(kind: str, system: str, adjective: str = "") -> str:
     ex = ", ".join(f'"{e}"' for e in KIND_EXAMPLES[kind])
     if kind == "dimensionless":
         return f"expected a {adjective + ' ' if adjective else ''}plain number (e.g. {ex})"
-    what = f"a {adjective} {kind}" if adjective else _a(kind)
+    what = f"a {adjective} {_KIND_NAMES.get(kind, kind)}" if adjective else _a(kind)
     return f"expected {what} (e.g. {ex} or a bare number in {_target(kind, system)})"
 
 
@@ -139,7 +168,7 @@ def _factor(unit: str, kind: str, system: str, shown: str, path: str, hint: str 
                                f'{_expected(kind, system)}') from None
     if dim != _kind_dim(kind):
         msg = f'"{shown}" is {_describe(dim)}, {_expected(kind, system)}'
-        if hint and dim == _kind_dim("mass") and kind == "force":
+        if hint and (kind != "force" or dim == _kind_dim("mass")):
             msg += f"; {hint}"
         elif kind == "force" and dim == _kind_dim("mass"):
             msg += '; "lb" is a pound of mass, a pound of force is "lbf"'
@@ -190,8 +219,8 @@ def to_system(value, kind: str, system: str, path: str, *, hint: str | None = No
         return x
     if isinstance(value, str):
         m = _NUMBER.fullmatch(value)
-        if m is None:
-            raise SceneError(path, f'could not read "{value}" as a quantity (a number, then a unit); '
+        if m is None or (m.group(2) and not _UNIT_TEXT.fullmatch(m.group(2))):
+            raise SceneError(path, f'could not read "{value}" as a quantity: write {QUANTITY_FORM}; '
                                    f'{_expected(kind, system)}')
         x = float(m.group(1))
         unit = m.group(2)

@@ -150,9 +150,9 @@ def test_unknown_keyword_is_refused_by_name():
     ({"rtol": 1e-17}, "rtol: rtol must be a finite number >= 8.88178e-16 (4 machine epsilons), "
                       "got 1e-17"),
     ({"margin_steps": 1e9}, "margin_steps: must be a whole number from 0 to 1000 (one solve "
-                            "each), got 1000000000.0"),
+                            "per step), got 1000000000.0"),
     ({"margin_steps": -1}, "margin_steps: must be a whole number from 0 to 1000 (one solve "
-                           "each), got -1"),
+                           "per step), got -1"),
 ])
 def test_bad_search_settings_are_refused(kw, message):
     with pytest.raises(lsc.SceneError) as e:

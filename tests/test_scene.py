@@ -733,18 +733,70 @@ values = st.recursive(
     max_leaves=8)
 
 
+#: Values of every wrong kind, for any key: nothing, booleans, garbage text, numbers of every sign
+#: and size, containers, quantities of the wrong unit, text after a quantity.
+WRONG = [None, True, False, "", " ", "fast", "1_0", "0x10", "nan", "inf", "-inf", "1e999", "1e308",
+         "1e-308", "5e-324", -1, 0, 0.0, -0.0, -1e-9, float("nan"), float("inf"), -float("inf"),
+         1e308, -1e308, 1e-308, 5e-324, 10 ** 400, 1e100, 1e-100, [], [1, 2], [[0, 0]], {}, {"x": 1},
+         "10 lbf", "10 ft/s", "3500 lb", "24000 lbf/ft", "1 s", "0.2 s/m", "300 N*s/m", "2 kg",
+         "1 ft^(9^9^9)", "12 mph # 10 ft/s", "10 ft/s ± 1", "10 ft/s 5", "1 degC"]
+
+
+def _derived(value) -> list:
+    """Wrong values made from a key's own (right) value: trailing text, wrong unit, sign, scale."""
+    if isinstance(value, bool) or value is None:
+        return [not value]
+    if isinstance(value, str):
+        return [value + " # 10", value + " ± 1", value + " 5", value + " lbf", "-" + value, value + "_0"]
+    if isinstance(value, int):
+        return [-value, value * 10 ** 300, f"{value} furlong", f"{value} # note", f"{value} s",
+                f"{value}_0", [value]]
+    if isinstance(value, float):
+        return [-value, value * 1e300, value * 1e-300, f"{value} furlong", f"{value} # note",
+                f"{value} s", str(value).replace(".", "_"), [value]]
+    if isinstance(value, list):
+        return [value[:1], value * 3, [value], {"table": value}]
+    return [list(value), {k: None for k in value}]
+
+
+def _wrong(value):
+    """A strategy for a wrong value in place of ``value``."""
+    return st.one_of(st.sampled_from(WRONG).map(copy.deepcopy),
+                     st.sampled_from(_derived(copy.deepcopy(value))).map(copy.deepcopy), values)
+
+
 def _bases():
+    """Scenes that hold every key of the scene format between them (each key at least once)."""
     chain = paper()
-    chain["vehicles"].append({"mass": 50, "speed": -1, "brake": {"mu": 0.5}})
+    chain["vehicles"].append({"mass": 50, "speed": -1, "brake": {"mu": 0.5, "mu_static": 0.6}})
     chain["contacts"].append({"loading": {"csv": "edge.csv", "deformation": "in", "force": "lbf"},
                               "unloading": {"table": [[0.3, 100], [0.2, 0]]}, "gap": "1 in",
                               "failure": {"force": "5 kip", "post_failure": {"stiffness": 100}}})
-    chain["solver"] = {"method": "scipy", "rtol": 1e-8, "dt": "1 ms", "max_events": 10}
+    chain["solver"] = {"method": "scipy", "rtol": 1e-8, "atol": 1e-9, "dt": "1 ms", "max_events": 10,
+                       "integrator": "RK45", "t_end": "1 s", "max_steps": 10000, "n_samples": 50}
     series = si()
     series["contacts"][0]["loading"] = {"series": [{"table": [[0, 0], [0.1, 1000], [0.2, 1500]]},
                                                    {"stiffness": 2e5}], "scale": 1.1}
     series["contacts"][0]["unloading"] = {"stiffness": "1 MN/m"}
-    return [paper(), chain, series]
+    tables = paper()
+    tables["contacts"][0] = {"loading": {"table": [[0, 0], [1.2, 3000], [2.4, 9000]], "deformation": "in",
+                                         "force": "lbf"},
+                             "unloading": {"table": [[30, 9], [20, 0]], "deformation": "mm", "force": "kN"},
+                             "failure": {"force": "8000 lbf"}}
+    tables["uncertainty"] = {"vehicles.0.speed": {"uniform": ["4 ft/s", "7 ft/s"]}}
+    tables["solver"] = {"method": "exact", "n_samples": 20, "max_events": 100, "t_end": 0.5}
+    kelvin, hunt, brach = paper(), paper(), paper()
+    kelvin["contacts"][0] = {"law": "kelvin", "stiffness": 24000, "damping": "300 lbf*s/ft", "gap": 0.1}
+    hunt["contacts"][0] = {"law": "hunt-crossley", "stiffness": "60000 lbf/ft^1.5", "exponent": 1.5,
+                           "restitution": 0.4}
+    brach["contacts"][0] = {"law": "brach", "stiffness": 24000, "damping": "2000 lbf*s/ft^2",
+                            "damping_restitution": 500, "failure": {"force": 1e5}}
+    return [paper(), chain, series, tables, kelvin, hunt, brach]
+
+
+#: Result fields that an accepted solve must hold finite (NaN-free), whatever the scene.
+FINITE = ("t", "x", "v", "delta_v", "v_final", "duration", "peak_force", "max_deformation",
+          "peak_acceleration")
 
 
 def _slots(obj, out):
@@ -763,33 +815,59 @@ def fuzz_dir(tmp_path_factory):
     return d
 
 
-#: Loader fuzzing: 10,000 examples by default (about a minute), 200,000 in hard mode
-#: (``pytest --hard`` / LSC_HARD=1); ``LSC_FUZZ_EXAMPLES`` sets the count outright.
+#: Loader fuzzing: 10,000 examples by default, 200,000 in hard mode (``pytest --hard`` /
+#: LSC_HARD=1); ``LSC_FUZZ_EXAMPLES`` sets the count outright.
 _HARD = os.environ.get("LSC_HARD", "").strip().lower() not in ("", "0", "false", "no")
 FUZZ_EXAMPLES = int(os.environ.get("LSC_FUZZ_EXAMPLES") or (200_000 if _HARD else 10_000))
+
+
+def _mutate(scene: dict, data) -> None:
+    """Replace (with a wrong value, mostly), delete or add keys anywhere in ``scene``."""
+    for _ in range(data.draw(st.integers(1, 3))):
+        slots = _slots(scene, [(None, None)])
+        parent, key = data.draw(st.sampled_from(slots))
+        op = data.draw(st.sampled_from(["wrong", "wrong", "wrong", "replace", "delete", "add"]))
+        if parent is None or op == "add":
+            target = parent[key] if parent is not None else scene
+            if isinstance(target, dict):
+                target[data.draw(st.one_of(st.text(max_size=10), st.sampled_from(
+                    ["mass", "weight", "brake", "failure", "law", "scale", "force", "deformation", "csv",
+                     "exponent", "damping", "damping_restitution", "gap", "uncertainty", "solver"])))] = \
+                    data.draw(values)
+            elif isinstance(target, list):
+                target.append(data.draw(values))
+        elif op == "delete":
+            del parent[key]
+        elif op == "wrong":
+            parent[key] = data.draw(_wrong(parent[key]))
+        else:
+            parent[key] = data.draw(values)
+
+
+def _solve_cheaply(s: Scene, data):
+    """Solve a loaded scene with the backend auto picks: every closed-form and exact one; one in
+    twenty of those that need the integrator (at a loose tolerance), to keep the run short."""
+    import lsc
+    from lsc.solvers import pick
+
+    if pick(s, "auto") == "scipy":
+        if data.draw(st.integers(0, 19), label="solve with scipy") != 0:
+            return None
+        return lsc.solve(s, method="scipy", rtol=1e-6, n_samples=20, max_steps=20_000)
+    return lsc.solve(s, method="auto", n_samples=20)
 
 
 @settings(max_examples=FUZZ_EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(data=st.data())
 def test_fuzz_only_scene_errors(data, fuzz_dir):
+    """Any key of the scene format given a wrong value (of every kind), deleted or joined by an
+    unknown one: loading, and solving what loads, ends in a finite Result or a SceneError or
+    SimulationError, never another exception."""
+    from lsc.errors import SimulationError
+
     scene = data.draw(st.sampled_from(_bases()))
-    for _ in range(data.draw(st.integers(1, 3))):
-        slots = _slots(scene, [(None, None)])
-        parent, key = data.draw(st.sampled_from(slots))
-        op = data.draw(st.sampled_from(["replace", "delete", "add"]))
-        if parent is None or op == "add":
-            target = parent[key] if parent is not None else scene
-            if isinstance(target, dict):
-                target[data.draw(st.one_of(st.text(max_size=10), st.sampled_from(
-                    ["mass", "weight", "brake", "failure", "law", "scale", "force", "deformation", "csv"])))] = \
-                    data.draw(values)
-            elif isinstance(target, list):
-                target.append(data.draw(values))
-        elif op == "delete":
-            del parent[key]
-        else:
-            parent[key] = data.draw(values)
+    _mutate(scene, data)
     try:
         s = Scene.load(scene, base_dir=fuzz_dir)
     except SceneError as e:
@@ -804,3 +882,13 @@ def test_fuzz_only_scene_errors(data, fuzz_dir):
     # a loaded scene re-loads from its own source to the same numbers
     s2 = s.with_values({})
     np.testing.assert_array_equal(s2.masses, s.masses)
+    try:
+        r = _solve_cheaply(s, data)
+    except (SceneError, SimulationError) as e:
+        event(type(e).__name__ + " on solving")
+        return
+    if r is None:
+        return
+    event("solved")
+    for name in FINITE:
+        assert np.all(np.isfinite(getattr(r, name))), (name, getattr(r, name))

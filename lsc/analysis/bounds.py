@@ -150,7 +150,7 @@ def max_closing_speed(scene, failure_force=None, *, contact: int = 0,
         The whole unit of speed for the rows and the bound [velocity] (``"1 mph"``; default 1).
     margin_steps : int
         Steps added above the first whole step at or above the root for the bound (default 1:
-        the paper's 6 ft/s from a root of 4.99 ft/s).
+        the paper's 6 ft/s from a root of 4.99 ft/s); at most :data:`MAX_MARGIN_STEPS`.
     bracket : (lo, hi), optional
         Speeds [velocity] with peak force below / above the failure force; by default the search
         starts at closing speed zero (speed of the vehicle in front) and doubles until above.
@@ -184,10 +184,10 @@ def max_closing_speed(scene, failure_force=None, *, contact: int = 0,
     dv = quantity(step, "velocity", base, "step")
     if not dv > 0:
         raise SceneError("step", f"must be a positive speed, got {dv:g}")
-    if isinstance(margin_steps, bool) or not isinstance(margin_steps, (int, float, np.number)) \
-            or not (0 <= margin_steps <= MAX_MARGIN_STEPS) or int(margin_steps) != margin_steps:
+    if isinstance(margin_steps, bool) or not isinstance(margin_steps, (int, np.integer)) \
+            or not 0 <= margin_steps <= MAX_MARGIN_STEPS:
         raise SceneError("margin_steps", f"must be a whole number from 0 to {MAX_MARGIN_STEPS} "
-                                         f"(one solve each), got {margin_steps!r}")
+                                         f"(one solve per step), got {margin_steps!r}")
     x0 = read_path(base, speed_path)
     ref, direct = _zero_force_speed(base, speed_path, k)
     evals = [0]

@@ -8,9 +8,13 @@ hysteresis scenes (piecewise-linear loading and unloading), the event-driven Sci
 
 from __future__ import annotations
 
+import difflib
+
+import numpy as np
+
 from ..errors import SceneError
 
-__all__ = ["METHODS", "pick", "run", "options_of"]
+__all__ = ["METHODS", "ALL_OPTIONS", "MAX_SAMPLES", "pick", "run", "options_of", "check_option"]
 
 #: Accepted values of ``method``.
 METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
@@ -24,6 +28,49 @@ _OPTIONS = {
     "reference": {"dt", "t_end", "n_samples", "max_steps"},
     "diffrax": {"rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"},
 }
+
+
+#: Every option that some backend accepts; any other name is an error for every method, ``auto``
+#: included.
+ALL_OPTIONS = frozenset().union(*_OPTIONS.values())
+#: Most points in a Result's sampled series (``n_samples``): a million rows of every series.
+MAX_SAMPLES = 1_000_000
+
+_POSITIVE = ("atol", "dt", "t_end", "first_step")
+_COUNTS = ("max_events", "max_steps", "n_samples")
+
+
+def check_option(name: str, value) -> None:
+    """Refuse, with a :class:`SceneError` at ``solver.<name>``, an option no backend knows or a
+    value outside its range: ``rtol`` in (0, 1); ``atol``, ``dt`` [s], ``t_end`` [s],
+    ``first_step`` [s] positive and finite (``atol = None``: the backend's default);
+    ``max_events``, ``max_steps`` whole numbers >= 1; ``n_samples`` in 1..:data:`MAX_SAMPLES`;
+    ``integrator`` a name."""
+    path = f"solver.{name}"
+    if name not in ALL_OPTIONS:
+        close = difflib.get_close_matches(str(name), sorted(ALL_OPTIONS), n=1, cutoff=0.6)
+        hint = f"; did you mean {close[0]!r}?" if close else ";"
+        raise SceneError(path, f"unknown option {name!r}{hint} accepted options: "
+                         f"{', '.join(sorted(ALL_OPTIONS))}")
+    if value is None and name == "atol":
+        return
+    if name == "integrator":
+        if not isinstance(value, str):
+            raise SceneError(path, f"integrator must be a name, got {value!r}")
+        return
+    if name in _COUNTS:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise SceneError(path, f"{name} must be a positive integer, got {value!r}")
+        if name == "n_samples" and value > MAX_SAMPLES:
+            raise SceneError(path, f"n_samples must be at most {MAX_SAMPLES:,} (points in each "
+                             f"sampled series), got {value:,}")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(value) or value <= 0:
+        raise SceneError(path, f"{name} must be a positive finite number, got {value!r}")
+    if name == "rtol" and not value < 1:
+        raise SceneError(path, f"rtol must be a positive finite number below 1 (a relative "
+                         f"tolerance, such as 1e-10), got {value!r}")
 
 
 def options_of(method: str) -> set[str]:
