@@ -105,8 +105,6 @@ PEAK_ITERS = 12
 #: these integrators have degree <= 7).
 _THETA = 0.5 - 0.5 * np.cos(np.pi * np.arange(10) / 9)
 _BARY = (-1.0) ** np.arange(10) * np.where((np.arange(10) == 0) | (np.arange(10) == 9), 0.5, 1.0)
-#: ``is_over`` threshold on closing speeds, relative to the speed scale (as HybridModel.is_over).
-OVER_TOL = 1e-12
 #: Longest step, in radians of the fastest natural oscillation of the frozen contacts (the SciPy
 #: backend's ``MAX_ANGLE``): diffrax sees an event only at the ends of a step, so a step longer
 #: than half an oscillation can cross an event surface and come back unseen (a rebound of
@@ -462,11 +460,10 @@ class _Core:
         pf, to_abs, _ = _frame_of(t0, y[:N], V, p)
         return y.at[:N].set(0.0).at[N:2 * N].add(-V), pf, to_abs, V
 
-    def _apart(self, y, disc, p, v_scale):
-        """HybridModel.contacts_apart in jnp: every contact open and none closing."""
-        _, Dd = self.model.deformation(y, p, jnp)
-        modes = jnp.stack([d["mode"] for d in disc[: self.model.K]])
-        return jnp.all(modes == 0) & jnp.all(Dd <= OVER_TOL * v_scale)
+    def _apart(self, t, y, disc, p, v_scale, horizon):
+        """HybridModel.contacts_apart in jnp: every contact open, none closing again before
+        ``horizon`` [s] (the crash horizon)."""
+        return self.model.contacts_apart(y, disc, t, horizon, p, jnp, v_scale)
 
     def _dtmax(self, disc, p):
         """Longest step [s] in discrete state ``disc``: ``MAX_ANGLE / ω`` for the Gershgorin bound
@@ -527,10 +524,10 @@ class _Core:
                                  self.solver.init(self.term, tp, te, yp, a2), False)[2]
         return self._peaks(tp, te, tp, te, dense, args)
 
-    def _over(self, y, disc, p, v_scale):
+    def _over(self, t, y, disc, p, v_scale, horizon):
         """HybridModel.is_over in jnp: contacts apart and no braked vehicle sliding."""
         m = self.model
-        apart = self._apart(y, disc, p, v_scale)
+        apart = self._apart(t, y, disc, p, v_scale, horizon)
         for st in disc[m.K: m.K + len(m.brakes)]:
             apart = apart & (st["mode"] == 0)
         return apart
@@ -653,8 +650,10 @@ class _Core:
             return jnp.where(own_atol, atol, atol.at[:N].set(x_tol))
 
         has_t_end = ~jnp.isnan(t_end)
-        horizon = jnp.where(has_t_end, t_end,
-                            jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon))
+        crash = jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon)
+        horizon = jnp.where(has_t_end, t_end, crash)
+        # a contact that would close again only after this has no crash left in it
+        over_by = jnp.where(has_t_end, jnp.maximum(crash, t_end), crash)
         inner = _with_tols(self.solver, rtol, atol)
         track = (not record) and self.interior
         stepper = _Stash(inner, self._peaks if track else None, self._point if track else None)
@@ -667,7 +666,7 @@ class _Core:
         law0, lawk0 = _law_status(disc0[:K])
         c = {"t": jnp.asarray(0.0), "y": y0, "disc": disc0, "status": law0,
              "status_contact": lawk0, "n_ev": jnp.int32(0), "n_seg": jnp.int32(0),
-             "finished": self._over(y0, disc0, p, v_scale) & ~has_t_end,
+             "finished": self._over(0.0, y0, disc0, p, v_scale, over_by) & ~has_t_end,
              "steps": jnp.int32(0), "rejected": jnp.int32(0)}
         if record:
             c.update({
@@ -694,7 +693,7 @@ class _Core:
         def body(c):
             t, disc = c["t"], c["disc"]
             y, pf, to_abs, v_frame = self._frame(t, c["y"], p)   # the segment's frame
-            over = self._over(y, disc, pf, v_scale)  # then free flight to t_end, events disarmed
+            over = self._over(t, y, disc, pf, v_scale, over_by)  # then free flight to t_end, events disarmed
             g0 = m.event_values(t, y, disc, pf, jnp) / sc
             off = jnp.where(g0 <= 0, EVENT_TOL - g0, 0.0)  # the restart trap
             args = (disc, pf, off, sc, ~over)
@@ -727,8 +726,8 @@ class _Core:
             n_ev = c["n_ev"] + fired.astype(jnp.int32)
             at_end = has_t_end & (tn >= t_end)
             # reaching t_end with only braked vehicles still sliding is no failure (as SciPy)
-            finished = (self._over(yn, new, pf, v_scale) & (~has_t_end | at_end)) | \
-                (at_end & ~fired & self._apart(yn, new, pf, v_scale))
+            finished = (self._over(tn, yn, new, pf, v_scale, over_by) & (~has_t_end | at_end)) | \
+                (at_end & ~fired & self._apart(tn, yn, new, pf, v_scale, over_by))
             finite = jnp.all(jnp.isfinite(yn)) & jnp.isfinite(tn)
             status = jnp.select(
                 [~ok, ~finite, law != 0, ~fired & ~over & ~finished, ~finished & (n_ev >= E)],

@@ -53,14 +53,17 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
     disc = model.to_python(disc)
     model.check_status(disc, 0.0)
     t = 0.0
-    horizon = float(t_end) if t_end is not None else model.horizon()
+    horizon = float(t_end) if t_end is not None else model.crash_horizon
+    # a contact that would close again only after this has no crash left in it
+    # (HybridModel.contacts_apart); a t_end beyond the crash horizon extends it
+    over_by = max(model.crash_horizon, horizon)
     segments, events = [], []
     totals = {"steps": 0, "nfev": 0}
     for k, st in enumerate(disc[: model.K]):
         if int(st["mode"]):
             events.append(Event(0.0, "contact", k))
     y_post = None
-    while not model.is_over(y, disc):
+    while not model.is_over(y, disc, t, over_by):
         if len(events) >= max_events:
             raise SimulationError(
                 f"event limit reached ({max_events} events by t = {t:.6g} s) and the crash is not "
@@ -73,7 +76,7 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         segments.append(Segment(t, step.t, disc, step.dense))
         t, y = step.t, np.asarray(step.y, float)
         if step.event is None:
-            if t_end is not None and model.contacts_apart(y, disc):
+            if t_end is not None and model.contacts_apart(y, disc, t, over_by):
                 break  # only braked vehicles still slide: the crash itself is over
             if t_end is not None:
                 raise SimulationError(
