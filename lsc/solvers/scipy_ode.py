@@ -275,7 +275,12 @@ class _StepWatch:
         if not self.linear.all():
             coef[False] = self._series(dense, t_old, h, step_roots.NONLINEAR_POINTS - 1)
         first = {}
-        for j, event in enumerate(self.owner):
+        # (a cheap bound first, for all at once: |T_k| <= 1, so a series is at least
+        # c_0 - sum |c_k|; where that is positive and the step ends positive, no root)
+        lin = coef[True]
+        clear = (lin[:, 0] - np.sum(np.abs(lin[:, 1:]), axis=1) > 0) & (at_end > 0) & self.linear
+        for j in np.flatnonzero(~clear):
+            event = self.owner[j]
             c = coef[bool(self.linear[j])][j]
             slack = 0.0 if self.linear[j] else step_roots.tail_bound(c)
             floor = 64 * np.finfo(float).eps * np.max(np.abs(c))

@@ -145,44 +145,55 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
     return r
 
 
-def _refine_peaks(model, segments, r, probes: int = 33) -> None:
+def _refine_peaks(model, segments, r, probes: int = 33, iterations: int = 64) -> None:
     """Peaks that can lie inside a segment (a damping law's force, a chain's middle vehicle),
-    located on the dense output to the solver's accuracy rather than read off the samples.
+    located on the dense output to the solver's accuracy rather than read off the samples:
+    in each segment, each force and acceleration is sampled at ``probes`` points and its largest
+    sample's neighbourhood searched by golden sections, all of them at once (one dense-output
+    call per iteration for every quantity), to about 1e-14 of the time.
 
     (For the IF-D law of two vehicles the force is affine in a deformation that is monotone
     inside every segment, so its peaks are at events, which the samples hold exactly.)"""
-    from scipy.optimize import minimize_scalar
-
     p = model.params
     pp = dict(p, gap=p["gap"][:, None])
     K, N = model.K, model.N
+    golden = 0.5 * (np.sqrt(5.0) - 1.0)
 
     def quantities(s, t):
+        """Forces and accelerations (K + N, len(t)) at times ``t``."""
         yy = np.asarray(s.dense(np.atleast_1d(t)), float).reshape(model.n_state, -1)
         F, _, a = model.accelerations(yy, s.disc, pp)
-        return (np.broadcast_to(np.asarray(F, float), (K, yy.shape[1])),
-                np.broadcast_to(np.asarray(a, float), (N, yy.shape[1])))
+        return np.concatenate([np.broadcast_to(np.asarray(F, float), (K, yy.shape[1])),
+                               np.broadcast_to(np.asarray(a, float), (N, yy.shape[1]))])
 
+    rows = np.arange(K + N)
     for s in segments:
         if not s.t1 > s.t0:
             continue
         tt = np.linspace(s.t0, s.t1, probes)
-        F, a = quantities(s, tt)
-        rows = [(F[k], 0, k, 1.0) for k in range(K)] + [(a[i], 1, i, None) for i in range(N)]
-        for vals, kind, idx, sign in rows:
-            j = int(np.argmax(np.abs(vals) if sign is None else vals))
-            sgn = sign if sign is not None else (1.0 if vals[j] >= 0 else -1.0)
-            lo, hi = tt[max(j - 1, 0)], tt[min(j + 1, probes - 1)]
+        q = quantities(s, tt)
+        # forces: their largest value; accelerations: their largest magnitude, with its sign
+        j = np.where(rows < K, np.argmax(q, axis=1), np.argmax(np.abs(q), axis=1))
+        sgn = np.where(rows < K, 1.0, np.sign(q[rows, j]) + (q[rows, j] == 0))
+        best = sgn * q[rows, j]
+        lo, hi = tt[np.maximum(j - 1, 0)], tt[np.minimum(j + 1, probes - 1)]
+        a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
 
-            def neg(t, kind=kind, idx=idx, sgn=sgn):
-                q = quantities(s, t)[kind][idx, 0]
-                return -sgn * q
+        def value(t):
+            return sgn * quantities(s, t)[rows, rows]
 
-            res = minimize_scalar(neg, bounds=(lo, hi), method="bounded",
-                                  options={"xatol": 1e-14 * max(abs(hi), 1e-300)})
-            best = max(sgn * vals[j], -res.fun)
-            if kind == 0:
-                r.peak_force[idx] = max(r.peak_force[idx], best)
-            elif best > abs(r.peak_acceleration[idx]):
-                r.peak_acceleration[idx] = sgn * best
+        fa, fb = value(a), value(b)
+        for _ in range(iterations):
+            left = fa >= fb   # the maximum lies in [lo, b]
+            hi, lo = np.where(left, b, hi), np.where(left, lo, a)
+            a, b, fa, fb = (np.where(left, hi - golden * (hi - lo), b),
+                            np.where(left, a, lo + golden * (hi - lo)),
+                            np.where(left, np.nan, fb), np.where(left, fa, np.nan))
+            new = value(np.where(left, a, b))
+            fa, fb = np.where(left, new, fa), np.where(left, fb, new)
+        best = np.maximum(best, np.maximum(fa, fb))
+        r.peak_force[:] = np.maximum(r.peak_force, best[:K])
+        acc = sgn[K:] * best[K:]
+        bigger = np.abs(acc) > np.abs(r.peak_acceleration)
+        r.peak_acceleration[bigger] = acc[bigger]
     r.peak_acceleration_g = r.peak_acceleration / model.scene.g
