@@ -28,7 +28,8 @@ from .errors import SimulationError
 
 __all__ = ["HybridModel", "OVER_TOL"]
 
-#: Closing rates at most this fraction of the speed scale are rounding (:meth:`HybridModel.contacts_apart`).
+#: Closing rates at most this fraction of the speed scale are rounding
+#: (:meth:`HybridModel.contacts_apart`).
 OVER_TOL = 1e-12
 
 

@@ -728,7 +728,8 @@ class _Core:
         def body(c):
             t, disc = c["t"], c["disc"]
             y, pf, to_abs, v_frame = self._frame(t, c["y"], p)   # the segment's frame
-            over = self._over(t, y, disc, pf, v_scale, over_by)  # then free flight to t_end, events disarmed
+            # (then free flight to t_end, events disarmed)
+            over = self._over(t, y, disc, pf, v_scale, over_by)
             g0 = m.event_values(t, y, disc, pf, jnp) / sc
             off = jnp.where(g0 <= 0, EVENT_TOL - g0, 0.0)  # the restart trap
             args = (disc, pf, off, sc, ~over, depth)
@@ -761,7 +762,8 @@ class _Core:
             n_ev = c["n_ev"] + fired.astype(jnp.int32)
             at_end = has_t_end & (tn >= t_end)
             # reaching t_end with only braked vehicles still sliding is no failure (as SciPy)
-            finished = (self._over(tn, yn, new, pf, v_scale, over_by) & (~has_t_end | at_end)) | \
+            finished = (self._over(tn, yn, new, pf, v_scale, over_by)
+                        & (~has_t_end | at_end)) | \
                 (at_end & ~fired & self._apart(tn, yn, new, pf, v_scale, over_by))
             finite = jnp.all(jnp.isfinite(yn)) & jnp.isfinite(tn)
             status = jnp.select(

@@ -3,10 +3,13 @@
 
 Each segment (frozen discrete state) is one run of a SciPy ``OdeSolver``, stepped by this module
 as ``solve_ivp`` would step it, with the armed events of that state, all terminal and all
-crossing zero downward. An event fires where its function goes from ``>= 0`` at one step end to
-``<= 0`` at the next (evaluated on the solver's own states there); its time is located on the
-step's dense output by Brent's method (to a few ulps in time), bracketed by those two step-end
-values rather than by the interpolant's: ``solve_ivp`` brackets with the interpolant, which for
+crossing zero downward. On every accepted step each armed event function is searched for its
+earliest crossing *inside* the step (:class:`_StepWatch`, :mod:`.step_roots`: linear in the
+state, it is a polynomial of the dense output's degree along the step, and all its roots are
+found), not only a sign change between the step's ends: a contact that reloads past its max
+deformation and comes back inside one step is seen. The crossing's time is located on the
+step's dense output by Brent's method (to a few ulps in time), bracketed at the step's end by
+the solver's own state rather than by the interpolant's: ``solve_ivp`` brackets with the interpolant, which for
 LSODA can differ from the step's own state in the last bits, and then fails ("f(a) and f(b) must
 have different signs") on an event that is within rounding of zero at a step end. Because every
 event function is zero on its surface and only a *downward* crossing counts, a new segment that
@@ -263,10 +266,9 @@ class _StepWatch:
         tt = t_old + 0.5 * (step_roots.lobatto(n) + 1.0) * h
         return step_roots.fit(np.asarray(self.values(tt, dense(tt)), float))
 
-    def crossings(self, dense, t_old, t_new, y_new, g_old, g_new):
+    def crossings(self, dense, t_old, t_new, y_new):
         """``[(t, event)]``: each armed event's earliest crossing inside the step
-        ``[t_old, t_new]`` (``g_old``, ``g_new``: the armed events at its ends, on the solver's
-        own states)."""
+        ``[t_old, t_new]`` (``y_new``: the solver's own state at its end)."""
         if not self.pieces.size:
             return []
         h = t_new - t_old
@@ -462,9 +464,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         except ValueError as exc:  # SciPy's own check of its options
             raise SimulationError(f"SciPy {integrator} could not start at t = {t0:.6g} s: "
                                   f"{exc}") from exc
-        idx = np.asarray(active, dtype=int)
         watch = _StepWatch(model, disc, pf, to_model, active, shift, touch)
-        g_old = gval(t0, y0)[idx] if active else None
         ts, interpolants = [t0], []
         best, tb, yb = None, t0, y0
         while solver.status == "running":
@@ -485,8 +485,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
             tb, yb = t_new, y_new
             if not active:
                 continue
-            g_new = gval(t_new, y_new)[idx]
-            roots = watch.crossings(dense, t_old, t_new, y_new, g_old, g_new)
+            roots = watch.crossings(dense, t_old, t_new, y_new)
             if roots:
                 # the earliest; on a tie (within 4 ulps) the lowest index
                 first = min(r for r, _ in roots)
@@ -499,7 +498,6 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                                      t_old, t_new, tb, yb)
                 tb = float(tb)
                 break
-            g_old = g_new
         steps, nfev = len(interpolants), solver.nfev + extra_nfev[0]
         if not interpolants:   # nothing to integrate (t0 at the horizon)
             return Step(t0, y0_abs, None,
