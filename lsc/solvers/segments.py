@@ -145,12 +145,13 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
     return r
 
 
-def _refine_peaks(model, segments, r, probes: int = 33, iterations: int = 64) -> None:
+def _refine_peaks(model, segments, r, probes: int = 33, iterations: int = 40) -> None:
     """Peaks that can lie inside a segment (a damping law's force, a chain's middle vehicle),
     located on the dense output to the solver's accuracy rather than read off the samples:
     in each segment, each force and acceleration is sampled at ``probes`` points and its largest
     sample's neighbourhood searched by golden sections, all of them at once (one dense-output
-    call per iteration for every quantity), to about 1e-14 of the time.
+    call per iteration for every quantity), to 1e-8 of the bracket in time: the value, at a
+    smooth maximum, to rounding.
 
     (For the IF-D law of two vehicles the force is affine in a deformation that is monotone
     inside every segment, so its peaks are at events, which the samples hold exactly.)"""
