@@ -137,8 +137,13 @@ class ModalChain:
         tt = np.arange(int(np.ceil(horizon / dt)) + 1) * dt
         g = h(tt)
         g[0] = max(g[0], 0.0)
-        # the intervals the curvature bound cannot clear, in order
-        for i in np.flatnonzero(np.minimum(g[:-1], g[1:]) - B * dt ** 2 / 8 <= 0):
+        # the intervals the curvature bound cannot clear, in order, up to the first sample past
+        # the surface
+        unclear = np.minimum(g[:-1], g[1:]) - B * dt ** 2 / 8 <= 0
+        past = np.flatnonzero(g[1:] <= 0)
+        if past.size:
+            unclear[past[0] + 1:] = False
+        for i in np.flatnonzero(unclear):
             found = _hunt(h, tt[i], tt[i + 1], g[i], g[i + 1], B)
             if found is not None:
                 return found
