@@ -88,6 +88,8 @@ class HysteresisLaw:
     name = "hysteresis"
     event_kinds = ("lo", "hi", "vmax")
     tracks_work = False  # its energies follow exactly from the curves
+    #: its force is affine in ``D`` inside a segment (effects watching it have linear events)
+    affine_force = True
 
     def __init__(self, spec: Hysteresis, failure=None):
         self.spec = spec
@@ -146,6 +148,22 @@ class HysteresisLaw:
     def armed(st) -> tuple:
         """Which events can fire in this state (NumPy backends skip the others)."""
         return (st["lo"] > -1e299, st["hi"] < 1e299, st["vm"] != 0)
+
+    def event_linear(self, laws) -> tuple:
+        """Every event is the minimum of linear pieces (:meth:`event_pieces`)."""
+        return (True,) * len(self.event_kinds)
+
+    @classmethod
+    def event_pieces(cls, D, Ddot, st):
+        """Each event as the minimum of functions linear in ``(D, Ḋ)``: here each is one
+        (deformation bounds and closing rate), so every event is linear in the state."""
+        return tuple((g,) for g in cls.events(D, Ddot, st))
+
+    @staticmethod
+    def closing_gap(D, st):
+        """While open: the deformation still to close before the contact touches again, at its
+        permanent set [length] (its ``hi`` event, ``hi - D``)."""
+        return st["hi"] - D
 
     # ------------------------------------------------------------------ segments
     def _zero(self, xp) -> dict:
@@ -481,6 +499,33 @@ class DampingLaw:
         """Which events can fire in this state (NumPy backends skip the others)."""
         on, comp = bool(st["on"]), bool(st["comp"])
         return (on, on and comp, not on, on and not comp)
+
+    @property
+    def affine_force(self) -> bool:
+        """Whether the force is affine in the state inside a segment (Kelvin's ``k D + c Ḋ``;
+        not Hunt–Crossley's ``k D^n (1 + α Ḋ)`` nor Brach's ``D (k + c Ḋ)``)."""
+        return self.name == "kelvin"
+
+    def event_linear(self, laws) -> tuple:
+        """Every event is the minimum of linear pieces (:meth:`event_pieces`)."""
+        return (True,) * len(self.event_kinds)
+
+    def event_pieces(self, D, Ddot, st):
+        """Each event as the minimum of functions linear in ``(D, Ḋ)``: the separation of
+        Hunt–Crossley and Brach, where the force reaches zero, is the earlier of ``D = 0`` and
+        the zero of its linear factor (``1 + α Ḋ``, ``k + c Ḋ``); the others are linear."""
+        sep, turn, close, rec = self.events(D, Ddot, st)
+        if self.name == "kelvin":
+            return (sep,), (turn,), (close,), (rec,)
+        on = st["on"]
+        factor = (1.0 if self.name == "hunt-crossley" else st["k"]) + st["c"] * Ddot
+        return ((on * D + (1.0 - on), on * factor + (1.0 - on)), (turn,), (close,), (rec,))
+
+    @staticmethod
+    def closing_gap(D, st):
+        """While open: the deformation still to close before the contact touches again at
+        ``D = 0`` [length] (its ``close`` event, ``-D``)."""
+        return -D
 
     # ------------------------------------------------------------------ transitions
     def _zero(self, p, xp):

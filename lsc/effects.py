@@ -57,6 +57,14 @@ class BrakeEffect:
         s = bool(st["slide"])
         return (s, not s, not s)
 
+    def event_linear(self, laws) -> tuple:
+        """Which events are linear in the state, given the contact ``laws``: the stop (its
+        velocity) always; the break-aways (the net contact force) when the forces of the
+        contacts on either side are affine."""
+        near = laws[max(self.i - 1, 0): self.i + 1]
+        affine = all(law.affine_force for law in near)
+        return (True, affine, affine)
+
     def _settle(self, v, net, m, p, xp) -> dict:
         """State of a vehicle at velocity ``v`` under net contact force ``net``."""
         moving = v != 0
@@ -106,6 +114,11 @@ class FailureEffect:
     @staticmethod
     def armed(st) -> tuple:
         return (not bool(st["failed"]),)
+
+    def event_linear(self, laws) -> tuple:
+        """Whether the event (failure force less the contact force) is linear in the state:
+        when the contact's force is affine."""
+        return (bool(laws[self.k].affine_force),)
 
     def init(self, F, p, xp=np) -> dict:
         """State at t = 0 (failed already if the force starts above the failure force)."""

@@ -26,7 +26,11 @@ from .contact import STATUS, make_law
 from .effects import BrakeEffect, FailureEffect
 from .errors import SimulationError
 
-__all__ = ["HybridModel"]
+__all__ = ["HybridModel", "OVER_TOL"]
+
+#: Closing rates at most this fraction of the speed scale are rounding
+#: (:meth:`HybridModel.contacts_apart`).
+OVER_TOL = 1e-12
 
 
 class HybridModel:
@@ -81,6 +85,7 @@ class HybridModel:
                        for w in range(len(part.event_kinds))]
         v = scene.speeds
         self.v_scale = float(max(np.max(np.abs(v)), np.max(np.abs(np.diff(v))), 1e-300))
+        self.event_linear, self.piece_event = self._piece_layout()
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):
@@ -151,6 +156,12 @@ class HybridModel:
         vals = []
         for k, law in enumerate(self.laws):
             vals.extend(law.events(D[k], Dd[k], disc[k]))
+        vals.extend(self._effect_events(y, disc, p, xp))
+        return xp.asarray(vals, dtype=float)
+
+    def _effect_events(self, y, disc, p, xp):
+        """The event functions of the brakes and failures (a list)."""
+        vals = []
         if self.brakes or self.failures:
             F, net, _ = self.accelerations(y, disc, p, xp)
             off = self.K
@@ -160,7 +171,31 @@ class HybridModel:
             off += len(self.brakes)
             for j, f in enumerate(self.failures):
                 vals.extend(f.events(F[f.k], disc[off + j], p["failures"][j]))
-        return xp.asarray(vals, dtype=float)
+        return vals
+
+    def event_pieces(self, t, y, disc, p, xp=np):
+        """The event functions as pieces (n_pieces, ...): event ``i`` is the minimum of the pieces
+        ``j`` with ``piece_event[j] == i`` (a contact law's :meth:`event_pieces`, each linear in
+        the state; an effect's event is one piece, linear where ``event_linear`` says so)."""
+        D, Dd = self.deformation(y, p, xp)
+        vals = []
+        for k, law in enumerate(self.laws):
+            for pieces in law.event_pieces(D[k], Dd[k], disc[k]):
+                vals.extend(pieces)
+        vals.extend(self._effect_events(y, disc, p, xp))
+        return xp.asarray([xp.broadcast_to(xp.asarray(v, dtype=float), xp.shape(D[0]))
+                           for v in vals])
+
+    def _piece_layout(self):
+        """(``event_linear`` (n_events,) bool, ``piece_event`` (n_pieces,) int): which events are
+        linear in the state (each part's declaration), and the event each piece belongs to."""
+        _, disc = self.initial()
+        counts = [len(pieces) for k, law in enumerate(self.laws)
+                  for pieces in law.event_pieces(0.0, 0.0, disc[k])]
+        counts += [1] * (len(self.events) - len(counts))
+        linear = [lin for part in self.parts for lin in part.event_linear(self.laws)]
+        return (np.asarray(linear, bool),
+                np.repeat(np.arange(len(self.events)), counts).astype(int))
 
     def active_events(self, disc) -> list[int]:
         """Indices of the events armed in this discrete state (NumPy backends skip the others)."""
@@ -216,19 +251,34 @@ class HybridModel:
             if code:
                 raise SimulationError(f"contact {k} at t = {t:.6g} s: {STATUS[code]}")
 
-    def is_over(self, y, disc) -> bool:
-        """True when every contact is open, none is closing and no braked vehicle still slides
-        (so no force acts and none can act again)."""
+    def is_over(self, y, disc, t=0.0, horizon=None) -> bool:
+        """True when every contact is open for good (:meth:`contacts_apart`) and no braked
+        vehicle still slides (so no force acts and none can act again)."""
         if any(int(st["mode"]) != 0 for st in disc[self.K: self.K + len(self.brakes)]):
             return False
-        return self.contacts_apart(y, disc)
+        return self.contacts_apart(y, disc, t, horizon)
 
-    def contacts_apart(self, y, disc) -> bool:
-        """True when every contact is open and none is closing (braked vehicles may still slide)."""
-        if any(int(st["mode"]) != 0 for st in disc[: self.K]):
-            return False
-        _, Dd = self.deformation(np.asarray(y), self.params)
-        return bool(np.all(Dd <= 1e-12 * self.v_scale))
+    def contacts_apart(self, y, disc, t=0.0, horizon=None, p=None, xp=np, v_scale=None):
+        """True when every contact is open and none will close again (braked vehicles may still
+        slide): with every contact open no force acts, each vehicle keeps its speed, and contact
+        ``k`` closes again at ``t + gap_k / rate_k`` (``gap_k`` [length]: what is left to close,
+        :meth:`~lsc.contact.HysteresisLaw.closing_gap`; ``rate_k``: its closing rate). It will
+        not when ``rate_k`` is rounding (at most ``OVER_TOL`` of the speed scale ``v_scale``),
+        or when that time is after ``horizon`` [s] (default :meth:`horizon`, the time by which
+        a crash of this scene is over): a pair of an elastic chain left closing at 1e-11 ft/s
+        by the integrator's error, 2 ft apart, would close again after 2e11 s.
+        ``t`` [s]: now; ``p``, ``xp``: parameters and array namespace (``jax.numpy`` in a
+        traced solve, where the result is a traced boolean)."""
+        p = self.params if p is None else p
+        v_scale = self.v_scale if v_scale is None else v_scale
+        horizon = self.crash_horizon if horizon is None else horizon
+        D, Dd = self.deformation(xp.asarray(y), p, xp)
+        modes = xp.stack([xp.asarray(st["mode"]) for st in disc[: self.K]])
+        gaps = xp.stack([xp.asarray(law.closing_gap(D[k], disc[k]), dtype=float)
+                         for k, law in enumerate(self.laws)])
+        late = gaps > Dd * (horizon - t)
+        apart = xp.all(modes == 0) & xp.all((Dd <= OVER_TOL * v_scale) | late)
+        return bool(apart) if xp is np else apart
 
     # ------------------------------------------------------------------ scales
     def time_scale(self, slowest: bool = False, loading: bool = False) -> float:
@@ -296,6 +346,13 @@ class HybridModel:
                 val = val[val < 1e299]
                 extent += float(np.max(val)) if val.size else 0.0
         return 1e6 * self.time_scale(slowest=True) + 4.0 * extent / w_min + 1.0
+
+    @property
+    def crash_horizon(self) -> float:
+        """:meth:`horizon`, computed once [s]."""
+        if not hasattr(self, "_crash_horizon"):
+            self._crash_horizon = self.horizon()
+        return self._crash_horizon
 
     @staticmethod
     def to_python(disc) -> list[dict]:

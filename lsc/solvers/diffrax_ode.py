@@ -105,8 +105,12 @@ PEAK_ITERS = 12
 #: these integrators have degree <= 7).
 _THETA = 0.5 - 0.5 * np.cos(np.pi * np.arange(10) / 9)
 _BARY = (-1.0) ** np.arange(10) * np.where((np.arange(10) == 0) | (np.arange(10) == 9), 0.5, 1.0)
-#: ``is_over`` threshold on closing speeds, relative to the speed scale (as HybridModel.is_over).
-OVER_TOL = 1e-12
+#: The Chebyshev series (degree 9, on the step as [-1, 1]) through values at the _THETA points,
+#: and the points where a step's event functions are evaluated from it to find a crossing
+#: inside the step.
+_CHEB_FIT = np.linalg.inv(np.polynomial.chebyshev.chebvander(2 * _THETA - 1, 9))
+_DIP_POINTS = 129
+_CHEB_DIP = np.polynomial.chebyshev.chebvander(np.linspace(-1.0, 1.0, _DIP_POINTS), 9)
 #: Longest step, in radians of the fastest natural oscillation of the frozen contacts (the SciPy
 #: backend's ``MAX_ANGLE``): diffrax sees an event only at the ends of a step, so a step longer
 #: than half an oscillation can cross an event surface and come back unseen (a rebound of
@@ -326,11 +330,15 @@ class _Stash(_Wrapping):
 
     With ``peaks`` (a function ``(t0, t1, lo, hi, dense, args) -> (F, a)``, the peaks on
     ``[lo, hi]`` of a step's interpolant) it also folds the peaks of every accepted step but the
-    last into its state (the last one may run past the event)."""
+    last into its state (the last one may run past the event). With ``hidden`` (a function
+    ``(t0, t1, y1, dense, args) -> bool``: an armed event crosses zero and back inside the step,
+    :meth:`_Core._hidden`) it rejects such a step (infinite error: the controller retries it
+    shorter), so that no step is accepted across a crossing its ends do not show."""
 
     solver: diffrax.AbstractSolver
     peaks: object = eqx.field(static=True, default=None)
     point: object = eqx.field(static=True, default=None)
+    hidden: object = eqx.field(static=True, default=None)
 
     def init(self, terms, t0, t1, y0, args):
         inner = self.solver.init(terms, t0, t1, y0, args)
@@ -345,6 +353,10 @@ class _Stash(_Wrapping):
         inner, tp, tb, _, dp, peaks = solver_state
         y1, err, dense, inner, result = self.solver.step(terms, t0, t1, y0, args, inner,
                                                          made_jump)
+        if self.hidden is not None:
+            # an event that crosses and crosses back inside the step: reject it (the
+            # controller shortens it, until a step ends past the event's surface)
+            err = jnp.where(self.hidden(t0, t1, y1, dense, args), jnp.inf, err)
         if self.peaks is not None:  # the previous step is not the last: fold it in
             F, a = self.peaks(tp, tb, tp, tb, dp, args)
             folded = _fold(peaks, F, a)
@@ -440,7 +452,7 @@ class _Core:
         return self.model.rhs(t, y, args[0], args[1], jnp)
 
     def _cond(self, t, y, args, **kwargs):
-        disc, p, off, sc, armed = args
+        disc, p, off, sc, armed = args[:5]
         g = self.model.event_values(t, y, disc, p, jnp) / sc + off
         return jnp.where(armed, jnp.min(g), 1.0)
 
@@ -462,11 +474,10 @@ class _Core:
         pf, to_abs, _ = _frame_of(t0, y[:N], V, p)
         return y.at[:N].set(0.0).at[N:2 * N].add(-V), pf, to_abs, V
 
-    def _apart(self, y, disc, p, v_scale):
-        """HybridModel.contacts_apart in jnp: every contact open and none closing."""
-        _, Dd = self.model.deformation(y, p, jnp)
-        modes = jnp.stack([d["mode"] for d in disc[: self.model.K]])
-        return jnp.all(modes == 0) & jnp.all(Dd <= OVER_TOL * v_scale)
+    def _apart(self, t, y, disc, p, v_scale, horizon):
+        """HybridModel.contacts_apart in jnp: every contact open, none closing again before
+        ``horizon`` [s] (the crash horizon)."""
+        return self.model.contacts_apart(y, disc, t, horizon, p, jnp, v_scale)
 
     def _dtmax(self, disc, p):
         """Longest step [s] in discrete state ``disc``: ``MAX_ANGLE / ω`` for the Gershgorin bound
@@ -527,13 +538,30 @@ class _Core:
                                  self.solver.init(self.term, tp, te, yp, a2), False)[2]
         return self._peaks(tp, te, tp, te, dense, args)
 
-    def _over(self, y, disc, p, v_scale):
+    def _over(self, t, y, disc, p, v_scale, horizon):
         """HybridModel.is_over in jnp: contacts apart and no braked vehicle sliding."""
         m = self.model
-        apart = self._apart(y, disc, p, v_scale)
+        apart = self._apart(t, y, disc, p, v_scale, horizon)
         for st in disc[m.K: m.K + len(m.brakes)]:
             apart = apart & (st["mode"] == 0)
         return apart
+
+    def _hidden(self, t0, t1, y1, dense, args):
+        """Whether an armed event crosses zero and back inside the step ``[t0, t1]`` unseen at its
+        ends: its value over its scale is positive at the end (on the integrator's state ``y1``)
+        and below ``-depth`` inside. Along the step's interpolant (a polynomial of degree < 10)
+        an event function linear in the state is a polynomial of that degree: its Chebyshev
+        series is fitted exactly at the :data:`_THETA` points and evaluated at
+        :data:`_DIP_POINTS` points across the step (a dip narrower than 1/128 of the step
+        between two of them is not seen; the SciPy backend finds every root)."""
+        disc, p, off, sc, armed, depth = args
+        h = jnp.where(t1 > t0, t1 - t0, 1.0)
+        interp = self.solver.interpolation_cls(t0=t0, t1=t0 + h, **dense)
+        ys = jax.vmap(interp.evaluate)(t0 + jnp.asarray(_THETA) * h)
+        g = jax.vmap(lambda y: self.model.event_values(t0, y, disc, p, jnp))(ys) / sc + off
+        low = jnp.min(jnp.asarray(_CHEB_DIP @ _CHEB_FIT) @ g, axis=0)
+        g_end = self.model.event_values(t1, y1, disc, p, jnp) / sc + off
+        return jnp.any((g_end > 0) & (low < -depth)) & armed & (t1 > t0)
 
     def _locate(self, solver, tp, tb, yp, dense, args):
         """The earliest event in the last step ``[tp, tb]`` (start state ``yp``): ``(t*, y*, i)``.
@@ -548,7 +576,7 @@ class _Core:
         the remainder is below round-off.
         """
         m, term = self.model, self.term
-        disc, p, off, sc, _ = args
+        disc, p, off, sc = args[:4]
         interp = solver.interpolation_cls(t0=tp, t1=tb, **dense)
         n = len(m.events)
 
@@ -652,12 +680,18 @@ class _Core:
             x_tol = rv * m.position_time(disc, t_load, p, jnp)
             return jnp.where(own_atol, atol, atol.at[:N].set(x_tol))
 
+        # a dip inside a step less deep than this (over each event's scale) only touches the
+        # surface (as the SciPy backend's: 100 rtol, the global error of a deformation)
+        depth = jnp.maximum(EVENT_TOL, 100 * rtol)
         has_t_end = ~jnp.isnan(t_end)
-        horizon = jnp.where(has_t_end, t_end,
-                            jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon))
+        crash = jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon)
+        horizon = jnp.where(has_t_end, t_end, crash)
+        # a contact that would close again only after this has no crash left in it
+        over_by = jnp.where(has_t_end, jnp.maximum(crash, t_end), crash)
         inner = _with_tols(self.solver, rtol, atol)
         track = (not record) and self.interior
-        stepper = _Stash(inner, self._peaks if track else None, self._point if track else None)
+        stepper = _Stash(inner, self._peaks if track else None, self._point if track else None,
+                         self._hidden)
         y0, disc0 = m.initial(p, jnp)
         disc0 = _canon(disc0)
 
@@ -667,7 +701,7 @@ class _Core:
         law0, lawk0 = _law_status(disc0[:K])
         c = {"t": jnp.asarray(0.0), "y": y0, "disc": disc0, "status": law0,
              "status_contact": lawk0, "n_ev": jnp.int32(0), "n_seg": jnp.int32(0),
-             "finished": self._over(y0, disc0, p, v_scale) & ~has_t_end,
+             "finished": self._over(0.0, y0, disc0, p, v_scale, over_by) & ~has_t_end,
              "steps": jnp.int32(0), "rejected": jnp.int32(0)}
         if record:
             c.update({
@@ -694,10 +728,11 @@ class _Core:
         def body(c):
             t, disc = c["t"], c["disc"]
             y, pf, to_abs, v_frame = self._frame(t, c["y"], p)   # the segment's frame
-            over = self._over(y, disc, pf, v_scale)  # then free flight to t_end, events disarmed
+            # (then free flight to t_end, events disarmed)
+            over = self._over(t, y, disc, pf, v_scale, over_by)
             g0 = m.event_values(t, y, disc, pf, jnp) / sc
             off = jnp.where(g0 <= 0, EVENT_TOL - g0, 0.0)  # the restart trap
-            args = (disc, pf, off, sc, ~over)
+            args = (disc, pf, off, sc, ~over, depth)
             controller = diffrax.PIDController(rtol=rtol, atol=segment_atol(disc),
                                                dtmax=self._dtmax(disc, p))
             sol = diffrax.diffeqsolve(
@@ -727,8 +762,9 @@ class _Core:
             n_ev = c["n_ev"] + fired.astype(jnp.int32)
             at_end = has_t_end & (tn >= t_end)
             # reaching t_end with only braked vehicles still sliding is no failure (as SciPy)
-            finished = (self._over(yn, new, pf, v_scale) & (~has_t_end | at_end)) | \
-                (at_end & ~fired & self._apart(yn, new, pf, v_scale))
+            finished = (self._over(tn, yn, new, pf, v_scale, over_by)
+                        & (~has_t_end | at_end)) | \
+                (at_end & ~fired & self._apart(tn, yn, new, pf, v_scale, over_by))
             finite = jnp.all(jnp.isfinite(yn)) & jnp.isfinite(tn)
             status = jnp.select(
                 [~ok, ~finite, law != 0, ~fired & ~over & ~finished, ~finished & (n_ev >= E)],

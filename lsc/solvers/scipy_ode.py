@@ -3,10 +3,13 @@
 
 Each segment (frozen discrete state) is one run of a SciPy ``OdeSolver``, stepped by this module
 as ``solve_ivp`` would step it, with the armed events of that state, all terminal and all
-crossing zero downward. An event fires where its function goes from ``>= 0`` at one step end to
-``<= 0`` at the next (evaluated on the solver's own states there); its time is located on the
-step's dense output by Brent's method (to a few ulps in time), bracketed by those two step-end
-values rather than by the interpolant's: ``solve_ivp`` brackets with the interpolant, which for
+crossing zero downward. On every accepted step each armed event function is searched for its
+earliest crossing *inside* the step (:class:`_StepWatch`, :mod:`.step_roots`: linear in the
+state, it is a polynomial of the dense output's degree along the step, and all its roots are
+found), not only a sign change between the step's ends: a contact that reloads past its max
+deformation and comes back inside one step is seen. The crossing's time is located on the
+step's dense output by Brent's method (to a few ulps in time), bracketed at the step's end by
+the solver's own state rather than by the interpolant's: ``solve_ivp`` brackets with the interpolant, which for
 LSODA can differ from the step's own state in the last bits, and then fails ("f(a) and f(b) must
 have different signs") on an event that is within rounding of zero at a step end. Because every
 event function is zero on its surface and only a *downward* crossing counts, a new segment that
@@ -27,12 +30,14 @@ import time
 
 import numpy as np
 import scipy.integrate
+from numpy.polynomial import chebyshev as cheb
 from scipy.integrate import OdeSolution
 from scipy.optimize import brentq
 
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
+from . import step_roots
 from .segments import Step, build_result, run_segments
 
 __all__ = ["solve", "INTEGRATORS"]
@@ -221,6 +226,96 @@ def _missed(gval, sol, active, best, tb, yb, tol):
     return best, tb, yb
 
 
+def _degree(dense) -> int:
+    """The degree in time of a SciPy step's dense output (a polynomial on the step)."""
+    for attr, axis in (("Q", 1), ("F", 0)):   # RK45, RK23, Radau: y_old + Q x^k; DOP853
+        if hasattr(dense, attr):
+            return int(np.shape(getattr(dense, attr))[axis])
+    if hasattr(dense, "yh"):                 # LSODA: its Nordsieck array
+        return int(np.shape(dense.yh)[1]) - 1
+    return int(getattr(dense, "order", 12))  # BDF
+
+
+class _StepWatch:
+    """The armed events of one segment, watched on each accepted step's dense output: every
+    crossing inside the step is found (:mod:`.step_roots`), not only a sign change between its
+    ends. Each event is the minimum of its pieces (:meth:`HybridModel.event_pieces`); a piece
+    linear in the state is a polynomial of the dense output's degree along the step and is
+    fitted exactly; one that is not is interpolated at :data:`~.step_roots.NONLINEAR_POINTS`
+    points, its values lowered by the interpolant's error bound."""
+
+    def __init__(self, model, disc, pf, to_model, active, shift, touch):
+        self.model, self.disc, self.pf, self.to_model = model, disc, pf, to_model
+        self.pf_columns = dict(pf, gap=np.asarray(pf["gap"], float)[:, None])
+        events = np.asarray(active, dtype=int)
+        self.pieces = np.flatnonzero(np.isin(model.piece_event, events))
+        self.owner = model.piece_event[self.pieces]          # the event of each watched piece
+        self.linear = model.event_linear[self.owner]
+        self.shift, self.depth = shift[self.owner], touch[self.owner]
+
+    def values(self, t, u):
+        """The watched pieces (n_pieces, ...) at frame state(s) ``u``."""
+        if np.ndim(u) == 1:
+            vals = self.model.event_pieces(t, self.to_model(u), self.disc, self.pf)
+            return vals[self.pieces] + self.shift
+        vals = self.model.event_pieces(t, self.to_model(u), self.disc, self.pf_columns)
+        return vals[self.pieces] + self.shift[:, None]
+
+    def _series(self, dense, t_old, h, n):
+        """Chebyshev coefficients of the pieces on the step, from ``n + 1`` points."""
+        tt = t_old + 0.5 * (step_roots.lobatto(n) + 1.0) * h
+        return step_roots.fit(np.asarray(self.values(tt, dense(tt)), float))
+
+    def crossings(self, dense, t_old, t_new, y_new):
+        """``[(t, event)]``: each armed event's earliest crossing inside the step
+        ``[t_old, t_new]`` (``y_new``: the solver's own state at its end)."""
+        if not self.pieces.size:
+            return []
+        h = t_new - t_old
+        at_end = np.asarray(self.values(t_new, y_new), float)
+        coef = {True: self._series(dense, t_old, h, _degree(dense))}
+        if not self.linear.all():
+            coef[False] = self._series(dense, t_old, h, step_roots.NONLINEAR_POINTS - 1)
+        first = {}
+        # (a cheap bound first, for all at once: |T_k| <= 1, so a series is at least
+        # c_0 - sum |c_k|; where that is positive and the step ends positive, no root)
+        lin = coef[True]
+        clear = (lin[:, 0] - np.sum(np.abs(lin[:, 1:]), axis=1) > 0) & (at_end > 0) & self.linear
+        for j in np.flatnonzero(~clear):
+            event = self.owner[j]
+            c = coef[bool(self.linear[j])][j]
+            slack = 0.0 if self.linear[j] else step_roots.tail_bound(c)
+            floor = 64 * np.finfo(float).eps * np.max(np.abs(c))
+            span = step_roots.first_crossing(c, max(self.depth[j], floor), at_end[j] <= 0,
+                                             slack)
+            if span is None:
+                continue
+            t = self._root(dense, t_old, t_new, j, c, span, at_end[j])
+            if t < first.get(int(event), np.inf):
+                first[int(event)] = t
+        return [(t, i) for i, t in first.items()]
+
+    def _root(self, dense, t_old, t_new, j, c, span, g_end):
+        """The crossing of piece ``j`` in ``span`` (in the step's ``[-1, 1]``), located on the
+        dense output (Brent), bracketed by its values there (at the step's end, the solver's
+        own ``g_end``: Brent between the step's ends as before); on the series ``c`` itself
+        where rounding leaves no bracket on the dense output."""
+        h = t_new - t_old
+        ta, tb = (t_old + 0.5 * (x + 1.0) * h for x in span)
+
+        def g(t):
+            return float(self.values(t, dense(t))[j])
+
+        ga = g(ta) if span[0] > -1.0 else g(t_old)
+        tb, gb = (t_new, g_end) if span[1] == 1.0 and g_end <= 0 else (tb, g(tb))
+        if ga >= 0 >= gb:
+            return _locate(g, ta, tb, ga, gb)
+
+        def series(t):
+            return float(cheb.chebval(2.0 * (t - t_old) / h - 1.0, c))
+        return _locate(series, ta, tb, max(series(ta), 0.0), min(series(tb), 0.0))
+
+
 def _locate(g, t_old, t_new, g_old, g_new):
     """The zero of ``g`` (an event function on a step's dense output) between the step ends
     ``t_old`` and ``t_new``, where it went from ``g_old >= 0`` to ``g_new <= 0`` (values on the
@@ -369,8 +464,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         except ValueError as exc:  # SciPy's own check of its options
             raise SimulationError(f"SciPy {integrator} could not start at t = {t0:.6g} s: "
                                   f"{exc}") from exc
-        idx = np.asarray(active, dtype=int)
-        g_old = gval(t0, y0)[idx] if active else None
+        watch = _StepWatch(model, disc, pf, to_model, active, shift, touch)
         ts, interpolants = [t0], []
         best, tb, yb = None, t0, y0
         while solver.status == "running":
@@ -391,14 +485,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
             tb, yb = t_new, y_new
             if not active:
                 continue
-            g_new = gval(t_new, y_new)[idx]
-            down = np.flatnonzero((g_old >= 0) & (g_new <= 0))
-            if down.size:
-                roots = []
-                for j in down:
-                    i = active[j]
-                    roots.append((_locate(lambda t, i=i: gval(t, dense(t))[i], t_old, t_new,
-                                          g_old[j], g_new[j]), i))
+            roots = watch.crossings(dense, t_old, t_new, y_new)
+            if roots:
                 # the earliest; on a tie (within 4 ulps) the lowest index
                 first = min(r for r, _ in roots)
                 best, tb = min((i, r) for r, i in roots if r <= first + 4 * np.spacing(first))
@@ -410,7 +498,6 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                                      t_old, t_new, tb, yb)
                 tb = float(tb)
                 break
-            g_old = g_new
         steps, nfev = len(interpolants), solver.nfev + extra_nfev[0]
         if not interpolants:   # nothing to integrate (t0 at the horizon)
             return Step(t0, y0_abs, None,
