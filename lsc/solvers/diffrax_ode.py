@@ -58,9 +58,15 @@ a second, small compiled function re-takes each step once for its dense interpol
 once per power-of-two bucket of steps and samples).
 
 Batches. :func:`solve_batch` vmaps the same loop (without the records) over a batch of parameters
-and returns the Result metrics per member. Force and acceleration peaks are taken at the events
-and, where they can lie between events (damping laws, braking, chains), at the extrema inside
-every step of the dense output.
+and returns the Result metrics per member, with the Result's definitions (:mod:`lsc.impacts`):
+the headline metrics over each vehicle's and contact's first impact, tracked in the loop's carry
+(first touch and separation, the speeds then, the peaks folded only while that impact is
+ongoing). Force and acceleration peaks are taken at the events and, where they can lie between
+events (damping laws, braking, chains), at the extrema inside every step of the dense output.
+(The scale of the pushed-shut test, :data:`lsc.impacts.PUSHED`, is the largest speed at t = 0
+and at the events, where the Result takes it over its samples: they differ only for a scene
+whose speeds peak between events, and then only for a closing speed at touch within a hair of
+1e-6 of that scale.)
 """
 
 from __future__ import annotations
@@ -1104,7 +1110,8 @@ def solve_batch(model, params_batch, *, integrator: str = "Dopri8", rtol: float 
     ``params_batch`` has the structure of ``model.params``; a leaf with one more leading axis than
     in ``model.params`` is batched (size B, the same for all), the others are shared (the initial
     state follows from ``v0``). Returns NumPy arrays with a leading axis B: the metrics of
-    :data:`BATCH_METRICS` (NaN for a failed member), ``status`` (0 = ok, see
+    :data:`BATCH_METRICS` (as a Result defines them: the headline metrics over the first impacts;
+    NaN for a failed member), ``status`` (0 = ok, see
     :data:`STATUS_CODES`), ``message`` (list of str), ``steps``, ``segments``; and ``stats``
     (``compile_time``, ``wall_time`` [s], ``size``). Peaks of force and acceleration are taken
     at the events and, where they can lie between events (damping laws, braking, chains), at the
