@@ -58,9 +58,15 @@ a second, small compiled function re-takes each step once for its dense interpol
 once per power-of-two bucket of steps and samples).
 
 Batches. :func:`solve_batch` vmaps the same loop (without the records) over a batch of parameters
-and returns the Result metrics per member. Force and acceleration peaks are taken at the events
-and, where they can lie between events (damping laws, braking, chains), at the extrema inside
-every step of the dense output.
+and returns the Result metrics per member, with the Result's definitions (:mod:`lsc.impacts`):
+the headline metrics over each vehicle's and contact's first impact, tracked in the loop's carry
+(first touch and separation, the speeds then, the peaks folded only while that impact is
+ongoing). Force and acceleration peaks are taken at the events and, where they can lie between
+events (damping laws, braking, chains), at the extrema inside every step of the dense output.
+(The scale of the pushed-shut test, :data:`lsc.impacts.PUSHED`, is the largest speed at t = 0
+and at the events, where the Result takes it over its samples: they differ only for a scene
+whose speeds peak between events, and then only for a closing speed at touch within a hair of
+1e-6 of that scale.)
 """
 
 from __future__ import annotations
@@ -81,6 +87,7 @@ from jax import lax  # noqa: E402
 
 from ..contact import STATUS  # noqa: E402
 from ..errors import SceneError, SimulationError  # noqa: E402
+from ..impacts import PUSHED  # noqa: E402
 from ..result import Event  # noqa: E402
 from .segments import Segment, build_result  # noqa: E402
 
@@ -721,8 +728,9 @@ class _Core:
                 fail_t = fail_t.at[k].set(jnp.where(failed0[j], 0.0, jnp.nan))
             for k in self.fail_laws:
                 fail_t = fail_t.at[k].set(jnp.where(disc0[k]["failed"] > 0, 0.0, jnp.nan))
-            c.update({"peak_force": F0, "peak_acc": a0, "y_post": y0, "separated": False,
-                      "contact_time": jnp.where(contact_modes(disc0) != 0, 0.0, jnp.nan),
+            closed0 = contact_modes(disc0) != 0
+            c.update(_first_impacts_init(closed0, y0[N:2 * N], F0, a0))
+            c.update({"y_post": y0, "separated": False,
                       "separation_time": jnp.full(K, jnp.nan), "failure_time": fail_t})
 
         def body(c):
@@ -795,12 +803,10 @@ class _Core:
                     "frame": c["frame"].at[j].set(jnp.concatenate([c["y"][:N], v_frame[None]])),
                     "rec": lax.dynamic_update_slice(c["rec"], row[None], (e, jnp.int32(0)))})
             else:
-                # metrics: peaks at the event points (before and after the transition)
+                # metrics: each contact's first impact (peaks at the event points before and
+                # after the transition, and inside the segment's steps, while it is ongoing)
                 Fb, _, ab = m.accelerations(yf, disc, pf, jnp)
                 Fa, _, aa = m.accelerations(yf, new, pf, jnp)
-                pa = c["peak_acc"]
-                pa = jnp.where(jnp.abs(ab) > jnp.abs(pa), ab, pa)
-                pa = jnp.where(jnp.abs(aa) > jnp.abs(pa), aa, pa)
                 mb, ma = contact_modes(disc), contact_modes(new)
                 closes = fired & (mb == 0) & (ma != 0)
                 opens = fired & (mb != 0) & (ma == 0)
@@ -812,17 +818,19 @@ class _Core:
                 for k in self.fail_laws:
                     now = fired & (disc[k]["failed"] == 0) & (new[k]["failed"] > 0)
                     fail_t = fail_t.at[k].set(jnp.where(now & jnp.isnan(fail_t[k]), tn, fail_t[k]))
-                peak_F = jnp.maximum(c["peak_force"], jnp.maximum(Fb, Fa))
+                first = {key: c[key] for key in _FIRST_KEYS}
+                ongoing = _ongoing(first)   # in this segment, up to the event (before it)
+                first = _fold_first(first, Fb, ab, ongoing)
                 if track:  # between the events: all steps, and the last one up to the event
-                    peak_F, pa = _fold((peak_F, pa), *step_peaks)
-                    peak_F, pa = _fold((peak_F, pa), *self._last_peaks(tp, tn, yp, args))
+                    first = _fold_first(first, *step_peaks, ongoing)
+                    first = _fold_first(first, *self._last_peaks(tp, tn, yp, args), ongoing)
+                first = _first_event(first, tn, yn[N:2 * N], closes, opens)
+                first = _fold_first(first, Fa, aa, _ongoing(first))   # after the event
+                out.update(first)
                 out.update({
-                    "peak_force": peak_F,
-                    "peak_acc": pa, "failure_time": fail_t,
+                    "failure_time": fail_t,
                     "y_post": jnp.where(jnp.any(opens), yn, c["y_post"]),
                     "separated": c["separated"] | jnp.any(opens),
-                    "contact_time": jnp.where(jnp.isnan(c["contact_time"]) & closes, tn,
-                                              c["contact_time"]),
                     "separation_time": jnp.where(opens, tn, c["separation_time"])})
             return out
 
@@ -837,27 +845,22 @@ class _Core:
         return out
 
     def _metrics(self, c, p):
-        """The Result metrics from the final carry (as Result.build computes them)."""
+        """The Result metrics from the final carry (as Result.build computes them): the headline
+        metrics from each vehicle's and contact's first impact (:func:`_headline`), the records
+        and ``v_final`` over the run."""
         m = self.model
-        disc, v0 = c["disc"][: m.K], p["v0"]
+        disc = c["disc"][: m.K]
         post = jnp.where(c["separated"], c["y_post"], c["y"])
         vf = post[m.N: 2 * m.N]
         rec = {key: jnp.stack([d[key] for d in disc]) for key in ("dmax", "dperm", "ec", "er")}
-        ct, st = c["contact_time"], c["separation_time"]
-        touched = ~jnp.isnan(ct)
-        ended = jnp.all(jnp.where(touched, ~jnp.isnan(st), True)) & jnp.any(touched)
-        duration = jnp.where(ended, jnp.max(jnp.where(touched, st, -jnp.inf))
-                             - jnp.min(jnp.where(touched, ct, jnp.inf)), jnp.nan)
-        return {
-            "delta_v": vf - v0, "v_final": vf, "duration": duration,
-            "peak_acceleration": c["peak_acc"], "peak_force": c["peak_force"],
+        out = _headline({key: c[key] for key in _FIRST_KEYS}, c["t"], c["y"][m.N: 2 * m.N])
+        out.update({
+            "v_final": vf,
             "max_deformation": rec["dmax"], "permanent_deformation": rec["dperm"],
-            # (as Result.build: NaN, not ±inf, for a contact that was not closing at t = 0)
-            "restitution": (vf[1:] - vf[:-1]) / jnp.where(v0[:-1] > v0[1:], v0[:-1] - v0[1:],
-                                                          jnp.nan),
             "restitution_energy": jnp.sqrt(rec["er"] / rec["ec"]),
             "energy_absorbed": rec["ec"], "energy_returned": rec["er"],
-            "contact_time": ct, "separation_time": st, "failure_time": c["failure_time"]}
+            "separation_time": c["separation_time"], "failure_time": c["failure_time"]})
+        return out
 
     # -- the dense output of the recorded steps, for the sampled series
     def _sample(self, p, rtol, atol, discs, st0, st1, sy0, sdisc, sframe, sts):
@@ -895,6 +898,95 @@ class _Core:
                 self._run(p, rtol, atol, t_end, horizon, False),
                 in_axes=(axes, None, None, None, 0 if np.ndim(horizon) else None)))
         return fn(p, rtol, atol, t_end, horizon)
+
+
+# ---------------------------------------------------------------------------- first impacts
+# The batch metrics follow lsc.impacts: an impact is one touch -> separation episode of one
+# contact; the headline metrics are each contact's and each vehicle's FIRST impact. The carry
+# holds, per contact k (vehicles k, k+1): its first touch ``contact_time`` and the velocities
+# then ``v_touch`` (K, 2), its first separation ``first_end`` and the velocities then ``v_sep``
+# (K, 2), the peak force ``peak_force`` (K,) and the signed peak accelerations ``peak_acc``
+# (K, 2) over that impact; and ``v_max``, the largest speed at t = 0 and at the events (the
+# scale of the pushed-shut test, lsc.impacts.PUSHED).
+_FIRST_KEYS = ("contact_time", "v_touch", "first_end", "v_sep", "peak_force", "peak_acc",
+               "v_max")
+
+
+def _pairs(v):
+    """(K, 2): the (rear, front) values of each contact's vehicles from per-vehicle ``v`` (N,)."""
+    return jnp.stack([v[:-1], v[1:]], axis=1)
+
+
+def _first_impacts_init(closed0, v0, F0, a0):
+    """The first-impact carry at t = 0: contacts closed then (``closed0`` (K,)) touch at 0, at the
+    initial speeds ``v0`` (N,), and their peaks start at the initial force and accelerations."""
+    K = closed0.shape[0]
+    return {"contact_time": jnp.where(closed0, 0.0, jnp.nan),
+            "v_touch": jnp.where(closed0[:, None], _pairs(v0), jnp.nan),
+            "first_end": jnp.full(K, jnp.nan), "v_sep": jnp.full((K, 2), jnp.nan),
+            "peak_force": jnp.where(closed0, F0, 0.0),
+            "peak_acc": jnp.where(closed0[:, None], _pairs(a0), 0.0),
+            "v_max": jnp.max(jnp.abs(v0))}
+
+
+def _ongoing(first):
+    """(K,): whether each contact's first impact has begun and not ended."""
+    return ~jnp.isnan(first["contact_time"]) & jnp.isnan(first["first_end"])
+
+
+def _fold_first(first, F, a, ongoing):
+    """Fold force (K,) and accelerations (N,) into the peaks of the first impacts ``ongoing``."""
+    A = _pairs(a)
+    return dict(first,
+                peak_force=jnp.where(ongoing, jnp.maximum(first["peak_force"], F),
+                                     first["peak_force"]),
+                peak_acc=jnp.where(ongoing[:, None] & (jnp.abs(A) > jnp.abs(first["peak_acc"])),
+                                   A, first["peak_acc"]))
+
+
+def _first_event(first, t, v, closes, opens):
+    """The first-impact carry after an event at time ``t`` with velocities ``v`` (N,), where the
+    contacts ``closes`` (K,) touch and ``opens`` (K,) separate."""
+    touch = closes & jnp.isnan(first["contact_time"])
+    end = opens & _ongoing(first)
+    V = _pairs(v)
+    return dict(first,
+                contact_time=jnp.where(touch, t, first["contact_time"]),
+                v_touch=jnp.where(touch[:, None], V, first["v_touch"]),
+                first_end=jnp.where(end, t, first["first_end"]),
+                v_sep=jnp.where(end[:, None], V, first["v_sep"]),
+                v_max=jnp.maximum(first["v_max"], jnp.max(jnp.abs(v))))
+
+
+def _headline(first, t_last, v_last):
+    """The headline metrics (as :meth:`lsc.Result._headline`) from the first-impact carry at the
+    end of the run (time ``t_last``, velocities ``v_last`` (N,): the end of an impact still
+    open). Per vehicle, its first impact is that of the adjacent contact that touched first
+    (ties: the lower contact index); a vehicle in no impact has ``delta_v`` and
+    ``peak_acceleration`` 0. ``duration``: the scene's first impact (0 if none)."""
+    ct, t1 = first["contact_time"], first["first_end"]
+    K = ct.shape[0]
+    touched = ~jnp.isnan(ct)
+    ended = ~jnp.isnan(t1)
+    v_end = jnp.where(ended[:, None], first["v_sep"], _pairs(v_last))
+    dv = jnp.where(touched[:, None], v_end - first["v_touch"], 0.0)
+    closing = first["v_touch"][:, 0] - first["v_touch"][:, 1]
+    struck = touched & (closing > PUSHED * first["v_max"])
+    restitution = jnp.where(struck, (v_end[:, 1] - v_end[:, 0]) / jnp.where(struck, closing, 1.0),
+                            jnp.nan)
+    start = jnp.where(touched, ct, jnp.inf)
+    # each vehicle: its rear contact (side 1) when that touched first, else its front (side 0)
+    rear = jnp.concatenate([jnp.array([False]), start[:-1] <= start[1:], jnp.array([True])])
+    k_rear, k_front = jnp.arange(K + 1) - 1, jnp.arange(K + 1)
+    kv = jnp.clip(jnp.where(rear, k_rear, k_front), 0, K - 1)
+    side = jnp.where(rear, 1, 0)
+    hit = touched[kv]
+    k1 = jnp.argmin(start)   # the scene's first impact (argmin: ties to the lower index)
+    duration = jnp.where(touched[k1], jnp.where(ended[k1], t1[k1], t_last) - ct[k1], 0.0)
+    return {"delta_v": jnp.where(hit, dv[kv, side], 0.0),
+            "peak_acceleration": jnp.where(hit, first["peak_acc"][kv, side], 0.0),
+            "peak_force": first["peak_force"], "restitution": restitution,
+            "duration": duration, "contact_time": ct}
 
 
 _CORES: dict = {}
@@ -1054,7 +1146,8 @@ def solve_batch(model, params_batch, *, integrator: str = "Dopri8", rtol: float 
     ``params_batch`` has the structure of ``model.params``; a leaf with one more leading axis than
     in ``model.params`` is batched (size B, the same for all), the others are shared (the initial
     state follows from ``v0``). Returns NumPy arrays with a leading axis B: the metrics of
-    :data:`BATCH_METRICS` (NaN for a failed member), ``status`` (0 = ok, see
+    :data:`BATCH_METRICS` (as a Result defines them: the headline metrics over the first impacts;
+    NaN for a failed member), ``status`` (0 = ok, see
     :data:`STATUS_CODES`), ``message`` (list of str), ``steps``, ``segments``; and ``stats``
     (``compile_time``, ``wall_time`` [s], ``size``). Peaks of force and acceleration are taken
     at the events and, where they can lie between events (damping laws, braking, chains), at the
