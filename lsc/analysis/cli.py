@@ -26,7 +26,8 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from ..cli import add_overwrite_option, json_writer, parquet_writer, require_parquet
+from ..cli import (add_overwrite_option, add_speed_unit_option, json_writer, parquet_writer,
+                   require_parquet)
 from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
@@ -63,6 +64,7 @@ def add_bound(sub) -> None:
                    help="steps above the first whole step at or above the root (default 1)")
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
     p.add_argument("--json", metavar="FILE", help="also write the bound as JSON")
+    add_speed_unit_option(p, "the speeds and delta-Vs (default: the unit of --step)")
     add_overwrite_option(p)
     p.set_defaults(func=cmd_bound)
 
@@ -70,14 +72,16 @@ def add_bound(sub) -> None:
 def cmd_bound(args) -> int:
     """Run ``lsc bound``: print the bound's summary (and write JSON)."""
     from ..cli import resolve_scene
+    from ..display import speed_display
     from .bounds import max_closing_speed
     scene = resolve_scene(args.scene)
+    speed_display(args.speed_unit, scene.units, "--speed-unit")  # before the search
     files = [Path(args.json)] if args.json else []
     refuse_existing(files, args.overwrite)
     b = max_closing_speed(scene, args.failure_force, contact=args.contact,
                           speed_path=args.speed_path, method=args.method, step=args.step,
                           margin_steps=args.margin_steps)
-    print(b.summary())
+    print(b.summary(speed_unit=args.speed_unit))
     write_files({f: json_writer(b.to_dict()) for f in files}, overwrite=args.overwrite)
     return 0
 
