@@ -274,3 +274,55 @@ def test_sweep_plot_axes_have_readable_names_and_units():
     assert ax.get_ylabel() == "peak force of contact 0 (bullet–target) [lbf]"
     si = lsc.sweep(SI_CHAIN, {"contacts.1.gap": [0.03, 0.05]})
     assert plots.sweep_metric(si, "duration").axes[0].get_xlabel() == "gap of contact 1 (B–C) [m]"
+
+
+# ------------------------------------------------------------------ work-precision diagrams
+def _compare_script():
+    import importlib.util
+    from pathlib import Path
+    file = Path(__file__).resolve().parents[1] / "scripts" / "compare_integrators.py"
+    spec = importlib.util.spec_from_file_location("compare_integrators", file)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _wp_rows(scene, methods):
+    rows = []
+    for j, m in enumerate(methods):
+        settings = ["-"] if m in ("closed-form", "exact") else \
+            [f"dt={dt:g}" for dt in (1e-4, 1e-5)] if m == "reference" else \
+            [f"rtol={rt:g}" for rt in (1e-6, 1e-10)]
+        for k, setting in enumerate(settings):
+            rows.append({"scene": scene, "method": m, "setting": setting,
+                         "time_s": 1e-3 * (j + 1) * (k + 1), "error": 10.0 ** -(3 + 3 * k + j),
+                         "compile_s": 3.5 + k if m.startswith("diffrax") else float("nan")})
+    return rows
+
+
+def test_work_precision_figures_keep_one_colour_per_method_and_label_their_points():
+    ci = _compare_script()
+    defaults = {"scipy DOP853": "rtol=1e-10", "diffrax Dopri8": "rtol=1e-10",
+                "reference": "dt=1e-05"}
+    everything = ["closed-form", "exact", "reference", "scipy RK45", "scipy DOP853",
+                  "diffrax Dopri8"]
+    fewer = ["reference", "scipy DOP853", "diffrax Dopri8"]  # no exact backends here
+    rows = _wp_rows("a", everything) + _wp_rows("b", fewer)
+    colours = []
+    for name in ("a", "b"):
+        ax = ci.figure(rows, name, name, defaults=defaults).axes[0]
+        lines = {l.get_label(): l for l in ax.get_lines() if not l.get_label().startswith("_")}
+        colours.append({m: (mpl.colors.to_hex(l.get_color()), l.get_marker())
+                        for m, l in lines.items() if m in everything})
+        texts = {t.get_text() for t in ax.texts}
+        assert {"1e-6", "1e-10", "1e-4", "1e-5"} <= texts           # each point's tolerance
+        assert "default setting of lsc.solve" in lines
+        rings = {(float(l.get_xdata()[0]), float(l.get_ydata()[0])) for l in ax.get_lines()
+                 if l.get_markerfacecolor() == "none" and l.get_markersize() > 11}
+        assert rings == {(r["error"], r["time_s"]) for r in rows if r["scene"] == name
+                         and defaults.get(r["method"]) == r["setting"]} and rings
+        assert "Dopri8 up to 4.5 s" in ax.get_title()                # compile time, apart
+        assert "compile excluded" in ax.get_ylabel()
+    assert set(colours[1]) == set(fewer)
+    assert all(colours[0][m] == colours[1][m] for m in fewer)        # same look in both panels
+    assert len(set(colours[0].values())) == len(everything)          # and one per method
