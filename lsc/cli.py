@@ -167,6 +167,16 @@ def add_solver_options(p) -> None:
     p.add_argument("--integrator", help="integrator (scipy: DOP853, RK45, LSODA, Radau, ...)")
 
 
+def add_speed_unit_option(p, what: str) -> None:
+    """Declare ``--speed-unit`` (the display unit of ``what``) on the subcommand parser ``p``;
+    checked by :func:`lsc.display.speed_display` (a :class:`lsc.SceneError` naming the accepted
+    units), not by argparse."""
+    from .display import SPEED_UNITS
+    p.add_argument("--speed-unit", metavar="|".join(SPEED_UNITS),
+                   help=f"print {what} in this unit (default: the scene's); the CSV and JSON "
+                        "files keep the scene's units")
+
+
 def _positive_float(text: str) -> float:
     try:
         x = float(text)
@@ -189,24 +199,34 @@ def _add_run(sub) -> None:
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output folder (default: {DEFAULT_OUT}/)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figures")
+    add_speed_unit_option(p, "the speeds and delta-Vs of the summary")
     add_overwrite_option(p)
     p.set_defaults(func=_cmd_run)
 
 
 def _cmd_run(args) -> int:
     from .api import solve
+    from .display import speed_display
     scene = resolve_scene(args.scene)
-    refuse_existing(run_files(args.out), args.overwrite)  # before the solve, not after
+    speed_display(args.speed_unit, scene.units, "--speed-unit")  # before the solve, not after
+    refuse_existing(run_files(args.out), args.overwrite)
     result = solve(scene, method=args.method, **_solver_options(args))
-    print(result.summary())
+    print(result.summary(speed_unit=args.speed_unit))
     from .analysis.mer import format_mer
     mer = format_mer(result)
     if mer:
         print("\n" + mer if isinstance(mer, str) else "\n" + "\n".join(mer))
     written = write_outputs(result, args.out, plots=not args.no_plots, overwrite=args.overwrite,
                             extra={"input": args.scene or DEFAULT_SCENE, "lsc_version": __version__})
-    print(f"\nwritten to {args.out}/: " + ", ".join(p.name for p in written))
+    print(f"\nwritten to {folder(args.out)}: " + ", ".join(p.name for p in written))
     return 0
+
+
+def folder(out) -> str:
+    """``out`` as printed before the names of the files written into it: one trailing slash
+    (``results/`` and ``results`` both print ``results/``)."""
+    text = str(out)
+    return text if text.endswith(("/", os.sep)) else text + "/"
 
 
 # --------------------------------------------------------------------------- lsc sweep
@@ -287,7 +307,7 @@ def _cmd_sweep(args) -> int:
     n, bad = s.stats["members"], s.stats["failed"]
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
           + (f", {bad} failed (see the status column)" if bad else ""))
-    print(f"written to {args.out}/: " + ", ".join(p.name for p in written))
+    print(f"written to {folder(args.out)}: " + ", ".join(p.name for p in written))
     return 0
 
 

@@ -23,21 +23,28 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["acceleration", "velocity", "ifd_loop", "save_all", "sweep_metric", "tornado", "FILES"]
+__all__ = ["acceleration", "velocity", "ifd_loop", "save_all", "sweep_metric", "tornado", "FILES",
+           "param_label", "metric_label"]
 
 #: The files :func:`save_all` writes.
 FILES = ("acceleration.png", "velocity.png", "ifd.png")
 
-# How events are drawn: kind → (label, line style, marker); unknown kinds get a default.
+# How events are drawn: kind → (label, line style, marker, colour); no two kinds alike (the
+# line style and colour together tell them apart in the legend). Kinds not listed get one of
+# _SPARE_STYLES, each a style no listed kind has (:func:`_event_styles`).
 _EVENT_STYLE = {
-    "contact": ("contact", (0, (1, 2)), "^"),
-    "max_deformation": ("max deformation", "--", "o"),
-    "max_deformation+separation": ("max deformation, separation", "--", "o"),
-    "separation": ("separation", "-.", "s"),
-    "reload_past_max": ("reload past max", ":", "D"),
-    "breakpoint": ("table breakpoint", (0, (1, 4)), "."),
-    "failure": ("bumper failure", (0, (3, 1, 1, 1)), "x"),
+    "contact": ("contact", (0, (1, 2)), "^", "0.35"),
+    "max_deformation": ("max deformation", "--", "o", "0.35"),
+    "max_deformation+separation": ("max deformation, separation", (0, (6, 2, 1, 2, 1, 2)), "o",
+                                   "0.2"),
+    "separation": ("separation", "-.", "s", "0.35"),
+    "reload_past_max": ("reload past max", ":", "D", "0.35"),
+    "breakpoint": ("table breakpoint", (0, (1, 4)), ".", "0.7"),
+    "failure": ("bumper failure", (0, (3, 1, 1, 1)), "x", "tab:red"),
 }
+_SPARE_STYLES = [((0, (5, 1)), "tab:purple"), ((0, (2, 2)), "tab:brown"),
+                 ((0, (8, 3, 2, 3)), "tab:olive"), ((0, (1, 1)), "tab:cyan"),
+                 ((0, (4, 2, 1, 2)), "tab:pink"), ((0, (10, 4)), "tab:gray")]
 _MAX_EVENT_LINES = 40  # beyond this many, table breakpoints are not drawn on the time plots
 
 
@@ -69,21 +76,55 @@ def _title(result) -> str:
 
 
 def _style(kind: str):
-    return _EVENT_STYLE.get(kind, (kind.replace("_", " "), ":", "x"))
+    """``(label, line style, marker, colour)`` of a listed event kind (a default for others)."""
+    return _EVENT_STYLE.get(kind, (kind.replace("_", " ").replace("+", ", "), ":", "x", "0.35"))
+
+
+def _event_styles(kinds) -> dict:
+    """kind → ``(label, line style, marker, colour)`` for the event kinds of one figure, no two
+    alike: listed kinds keep theirs, the others take the spare styles in order of name (cycled
+    with markers beyond them)."""
+    out = {k: _EVENT_STYLE[k] for k in kinds if k in _EVENT_STYLE}
+    others = sorted(set(kinds) - set(out))
+    markers = "v<>phH*"
+    for j, kind in enumerate(others):
+        ls, color = _SPARE_STYLES[j % len(_SPARE_STYLES)]
+        out[kind] = (_style(kind)[0], ls, markers[j // len(_SPARE_STYLES) % len(markers)],
+                     color if j < len(_SPARE_STYLES) else f"C{j % 10}")
+    return out
 
 
 def _mark_events(ax, result):
-    """Vertical lines at the event times, one legend entry per kind."""
+    """Vertical lines at the event times, one legend entry per kind, each kind its own style."""
     events = list(result.events)
     if len(events) > _MAX_EVENT_LINES:
         events = [e for e in events if e.kind != "breakpoint"]
+    styles = _event_styles({e.kind for e in events})
     seen = set()
     for ev in events:
-        label, ls, _ = _style(ev.kind)
-        color = "0.75" if ev.kind == "breakpoint" else "0.45"
+        label, ls, _, color = styles[ev.kind]
         ax.axvline(float(ev.time), color=color, lw=0.9, ls=ls,
                    label=None if ev.kind in seen else label, zorder=0)
         seen.add(ev.kind)
+
+
+def _legend_below(ax, **kwargs):
+    """The axes' legend under the axes and their x label, off the data; constrained layout
+    makes room for it. Returns the legend."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.transforms import ScaledTranslation
+    import matplotlib as mpl
+
+    def points(size):
+        return FontProperties(size=size).get_size_in_points()
+
+    rc = mpl.rcParams
+    drop = (rc["xtick.major.size"] + rc["xtick.major.pad"] + points(rc["xtick.labelsize"])
+            + ax.xaxis.labelpad + points(rc["axes.labelsize"]) + 6)  # [pt]
+    n = len(ax.get_legend_handles_labels()[1])
+    where = ax.transAxes + ScaledTranslation(0, -drop / 72, ax.figure.dpi_scale_trans)
+    return ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.0), bbox_transform=where,
+                     ncols=min(n, 4) or 1, fontsize="small", **kwargs)
 
 
 def _time_plot(result, ax, values, ylabel):
@@ -96,7 +137,7 @@ def _time_plot(result, ax, values, ylabel):
     ax.set_ylabel(ylabel)
     ax.set_title(_title(result), fontsize="medium")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
+    _legend_below(ax)
     return fig, ax
 
 
@@ -186,7 +227,7 @@ def ifd_loop(result, ax=None):
     ax.set_ylabel(f"force{_unit(result, 'force')}")
     ax.set_title(_title(result), fontsize="medium")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
+    _legend_below(ax)
     return fig
 
 
@@ -217,21 +258,90 @@ def save_all(result, out_dir, dpi: int = 150, *, overwrite: bool = False) -> lis
                        overwrite=overwrite)
 
 
+#: Readable names of the metrics (axis labels).
+METRIC_NAMES = {
+    "delta_v": "ΔV", "v_final": "final speed", "peak_acceleration": "peak acceleration",
+    "peak_acceleration_g": "peak acceleration", "duration": "pulse duration",
+    "max_deformation": "maximum deformation", "permanent_deformation": "permanent deformation",
+    "peak_force": "peak force", "restitution": "restitution (velocity)",
+    "restitution_energy": "restitution (energy)", "energy_absorbed": "energy absorbed",
+    "energy_returned": "energy returned", "failure_time": "time of bumper failure",
+}
+
+# Readable names of the numeric fields of a scene path, after the vehicle or contact index.
+_FIELD_NAMES = {
+    ("speed",): "initial speed", ("mass",): "mass", ("weight",): "weight", ("gap",): "gap",
+    ("loading", "stiffness"): "loading stiffness", ("loading", "scale"): "loading force scale",
+    ("unloading", "stiffness"): "unloading stiffness",
+    ("unloading", "restitution"): "restitution", ("failure", "force"): "failure force",
+    ("brake", "mu"): "braking friction coefficient",
+    ("brake", "mu_static"): "static friction coefficient",
+}
+
+
+def _contact_name(scene, k: int) -> str:
+    names = [v.name for v in scene.vehicles]
+    return f"contact {k} ({names[k]}–{names[k + 1]})" if 0 <= k < len(scene.contacts) \
+        else f"contact {k}"
+
+
+def _with_unit(text: str, unit: str) -> str:
+    return f"{text} [{unit}]" if unit else text
+
+
+def param_label(scene, path: str) -> str:
+    """An axis label for a swept scene path, with its unit: ``"vehicles.0.speed"`` → ``"initial
+    speed of bullet [ft/s]"``; a path it has no name for is shown as given."""
+    from .analysis._common import path_kind, split_path
+    parts = split_path(path)
+    kind = path_kind(path)
+    unit = scene.unit(kind) if kind and kind != "dimensionless" else ""
+    if parts == ["g"]:
+        return _with_unit("gravitational acceleration g", unit)
+    if len(parts) >= 3 and parts[1].isdigit() and parts[0] in ("vehicles", "contacts"):
+        i, rest = int(parts[1]), tuple(parts[2:])
+        field = _FIELD_NAMES.get(rest, " ".join(rest).replace("_", " "))
+        if parts[0] == "vehicles":
+            owner = scene.vehicles[i].name if i < len(scene.vehicles) else f"vehicle {i}"
+        else:
+            owner = _contact_name(scene, i)
+        return _with_unit(f"{field} of {owner}", unit)
+    return _with_unit(path, unit)
+
+
+def metric_label(scene, metric: str, index=None) -> str:
+    """An axis label for a metric with its unit (``"ΔV of target [ft/s]"``, ``"peak acceleration
+    of bullet [g]"``); ``index``: the vehicle or contact of a per-vehicle / per-contact one."""
+    from .result import METRICS
+    kind, per = METRICS[metric]
+    text = METRIC_NAMES.get(metric, metric.replace("_", " "))
+    if per == "vehicle":
+        text += f" of {scene.vehicles[index].name}"
+    elif per == "contact":
+        text += f" of {_contact_name(scene, index)}"
+    unit = "g" if metric == "peak_acceleration_g" else scene.unit(kind)
+    return _with_unit(text, unit)
+
+
+def _short(label: str) -> str:
+    """A label without its unit (for legend entries that give the value and unit)."""
+    return label.rsplit(" [", 1)[0]
+
+
 def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None):
     """One metric of a :class:`~lsc.sweep.SweepResult` against the first swept parameter (one
-    line per value of the others, for a grid). ``index`` picks the vehicle or contact of a
+    line per value of the others, for a grid); the axes are labelled with readable names and
+    units (:func:`param_label`, :func:`metric_label`). ``index`` picks the vehicle or contact of a
     per-vehicle/contact metric (default: the last vehicle, the first contact). With ``file``
     the figure is saved there and the path returned; otherwise the figure is returned."""
     from matplotlib.figure import Figure
     from .result import METRICS
     kind, per = METRICS[metric]
     values = np.asarray(sweep.metrics[metric], float)
-    label = metric
+    i = None
     if per != "scene":
         i = index if index is not None else (values.shape[1] - 1 if per == "vehicle" else 0)
         values = values[:, i]
-        label += f"[{sweep.scene.vehicles[i].name if per == 'vehicle' else i}]"
-    unit = sweep.scene.unit(kind)
     paths = list(sweep.params)
     x = np.asarray(sweep.params[paths[0]], float)
     if ax is None:
@@ -242,21 +352,28 @@ def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None)
     if len(sweep.shape) == 2:
         rows = x.reshape(sweep.shape)[:, 0]
         for j in range(sweep.shape[1]):
-            other = ", ".join(f"{p} = {sweep.params[p].reshape(sweep.shape)[0, j]:g}"
+            other = ", ".join(f"{_short(param_label(sweep.scene, p))} = "
+                              f"{sweep.params[p].reshape(sweep.shape)[0, j]:g} "
+                              f"{_unit_of(param_label(sweep.scene, p))}".rstrip()
                               for p in paths[1:])
             ax.plot(rows, values.reshape(sweep.shape)[:, j], "o-", ms=3, label=other)
-        ax.legend(fontsize=8)
     else:
         order = np.argsort(x)
         ax.plot(x[order], values[order], "o-", ms=3)
-    ax.set_xlabel(paths[0])
-    ax.set_ylabel(label + (f" [{unit}]" if unit else ""))
+    ax.set_xlabel(param_label(sweep.scene, paths[0]))
+    ax.set_ylabel(metric_label(sweep.scene, metric, i))
     ax.set_title(f"{sweep.scene.name} ({sweep.method})")
     ax.grid(True, alpha=0.3)
+    if len(sweep.shape) == 2:
+        _legend_below(ax)
     if file is None:
         return fig
     fig.savefig(file, dpi=150)
     return Path(file)
+
+
+def _unit_of(label: str) -> str:
+    return label.rsplit(" [", 1)[1][:-1] if label.endswith("]") and " [" in label else ""
 
 
 def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, file=None):
@@ -328,7 +445,7 @@ def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, f
                       + (f", parameters ±{100 * float(swing):g} %" if not isinstance(swing, dict)
                          else ", parameters moved by their swing"))
         if keep:
-            ax.legend(fontsize=8, loc="lower right")
+            _legend_below(ax)
     if swing is None:  # a zero parameter is normalised by its reference value: say which
         for j in range(len(labels)):
             if sens.values[j] == 0:

@@ -259,27 +259,37 @@ class Result:
                 cols[f"{key}[{k}] ({u[key]})"] = arr[:, k]
         return cols
 
-    def summary(self) -> str:
-        """A plain-text summary table (what ``lsc run`` prints)."""
+    def summary(self, speed_unit: str | None = None) -> str:
+        """A plain-text summary table (what ``lsc run`` prints).
+
+        ``speed_unit`` (``"mph"``, ``"km/h"``, ``"ft/s"``, ``"m/s"``; default the scene's)
+        is the unit the speeds and ΔVs are printed in; everything else stays in the scene's
+        units, accelerations in g beside them. Raises :class:`lsc.SceneError` for another unit.
+        """
+        from .display import speed_display
+        fv, vel = speed_display(speed_unit, self.scene.units)
         u = self.units
         s = self.scene
-        lines = [f"{s.name}  —  method {self.method}, {self.scene.units} units"]
+        lines = [f"{s.name}  —  method {self.method}, {self.scene.units} units"
+                 + (f", speeds in {vel}" if speed_unit is not None else "")]
         tol = ", ".join(f"{k}={v:g}" for k, v in self.tolerances.items() if v is not None)
         if tol:
             lines[0] += f" ({tol})"
-        w = max(12, *(len(v.name) for v in s.vehicles))
+        contacts = [f"{k} ({s.vehicles[k].name}-{s.vehicles[k + 1].name})"
+                    for k in range(len(s.contacts))]
+        w = max(12, *(len(v.name) for v in s.vehicles), *map(len, contacts))
         lines.append("")
         total = not np.array_equal(self.delta_v, self.delta_v_total)
         lines.append(f"{'vehicle':<{w}} {'v0':>10} {'v_final':>10} {'delta_v':>10} "
                      f"{'peak a':>11} {'peak a':>8}" + (f" {'dV total':>10}" if total else ""))
-        lines.append(f"{'':<{w}} {u['v_final']:>10} {u['v_final']:>10} {u['delta_v']:>10} "
+        lines.append(f"{'':<{w}} {vel:>10} {vel:>10} {vel:>10} "
                      f"{u['peak_acceleration']:>11} {'g':>8}"
-                     + (f" {u['delta_v_total']:>10}" if total else ""))
+                     + (f" {vel:>10}" if total else ""))
         for i, veh in enumerate(s.vehicles):
-            lines.append(f"{veh.name:<{w}} {veh.speed:>10.4g} {self.v_final[i]:>10.4f} "
-                         f"{self.delta_v[i]:>10.4f} {self.peak_acceleration[i]:>11.4g} "
+            lines.append(f"{veh.name:<{w}} {veh.speed * fv:>10.4g} {self.v_final[i] * fv:>10.4f} "
+                         f"{self.delta_v[i] * fv:>10.4f} {self.peak_acceleration[i]:>11.4g} "
                          f"{self.peak_acceleration_g[i]:>8.3f}"
-                         + (f" {self.delta_v_total[i]:>10.4f}" if total else ""))
+                         + (f" {self.delta_v_total[i] * fv:>10.4f}" if total else ""))
         if total:
             lines.append("(delta_v and peak a: over the vehicle's first impact; dV total: v_final "
                          "- v0, over the whole run)")
@@ -288,8 +298,8 @@ class Result:
                      f"{'e (vel)':>8} {'e (energy)':>10}")
         lines.append(f"{'':<{w}} {u['max_deformation']:>10} {u['permanent_deformation']:>10} "
                      f"{u['peak_force']:>10} {'':>8} {'':>10}")
-        for k in range(len(s.contacts)):
-            lines.append(f"{f'{k} ({s.vehicles[k].name}-{s.vehicles[k + 1].name})':<{w}} "
+        for k, label in enumerate(contacts):
+            lines.append(f"{label:<{w}} "
                          f"{self.max_deformation[k]:>10.5f} {self.permanent_deformation[k]:>10.5f} "
                          f"{self.peak_force[k]:>10.6g} {self.restitution[k]:>8.4f} "
                          f"{self.restitution_energy[k]:>10.4f}")
@@ -302,7 +312,7 @@ class Result:
                          + (f"failed at t = {self.failure_time[k]:.6g} {u['failure_time']}{post}"
                             if self.failed[k] else "not reached"))
         if len(self.impacts) > 1:
-            lines += ["", *self._impacts_table(w)]
+            lines += ["", *self._impacts_table(w, fv, vel)]
         lines.append("")
         total = (f" (whole crash {self.duration_total:.6g} {u['duration']})"
                  if self.duration_total != self.duration else "")
@@ -313,23 +323,27 @@ class Result:
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
-    def _impacts_table(self, w: int) -> list[str]:
-        """The summary's lines for the impacts, in order of first touch."""
-        u, names = self.units, [v.name for v in self.scene.vehicles]
+    def _impacts_table(self, w: int, fv: float = 1.0, vel: str | None = None) -> list[str]:
+        """The summary's lines for the impacts, in order of first touch (speeds times ``fv``,
+        in ``vel``; default the scene's unit)."""
+        u, names, g = self.units, [v.name for v in self.scene.vehicles], self.scene.g
         labels = [f"{j}: {m.contact} ({names[m.vehicles[0]]}-{names[m.vehicles[1]]})"
                   for j, m in enumerate(self.impacts, 1)]
         w = max(w, *map(len, labels))
-        vel, acc = u["delta_v"], u["peak_acceleration"]
+        vel, acc = vel or u["delta_v"], u["peak_acceleration"]
         lines = [f"{'impact':<{w}} {'t_start':>10} {'t_end':>10} {'closing':>9} "
                  f"{'dV rear':>9} {'dV front':>9} {'peak a rear':>12} {'peak a front':>12} "
-                 f"{'F_peak':>10} {'D_max':>9} {'e (vel)':>8}",
+                 f"{'rear':>7} {'front':>7} {'F_peak':>10} {'D_max':>9} {'e (vel)':>8}",
                  f"{'':<{w}} {u['t']:>10} {u['t']:>10} {vel:>9} {vel:>9} {vel:>9} "
-                 f"{acc:>12} {acc:>12} {u['peak_force']:>10} {u['max_deformation']:>9} {'':>8}"]
+                 f"{acc:>12} {acc:>12} {'g':>7} {'g':>7} {u['peak_force']:>10} "
+                 f"{u['max_deformation']:>9} {'':>8}"]
         for label, m in zip(labels, self.impacts):
             end = f"{m.t_end:>10.6g}" if m.separated else f"{'(open)':>10}"
             lines.append(f"{label:<{w}} {m.t_start:>10.6g} {end} "
-                         f"{m.closing_speed:>9.4f} {m.delta_v[0]:>+9.4f} {m.delta_v[1]:>+9.4f} "
+                         f"{m.closing_speed * fv:>9.4f} {m.delta_v[0] * fv:>+9.4f} "
+                         f"{m.delta_v[1] * fv:>+9.4f} "
                          f"{m.peak_acceleration[0]:>12.4g} {m.peak_acceleration[1]:>12.4g} "
+                         f"{m.peak_acceleration[0] / g:>7.3f} {m.peak_acceleration[1] / g:>7.3f} "
                          f"{m.peak_force:>10.6g} {m.max_deformation:>9.5f} "
                          f"{m.restitution:>8.4f}")
         lines.append("(the tables above report each vehicle's and contact's first impact; "

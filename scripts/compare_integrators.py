@@ -29,6 +29,11 @@ scene, ``cheapest.md`` (and ``cheapest.csv``), the cheapest method for each accu
     python scripts/compare_integrators.py --quick    # smoke run, under a minute: fewer
                                                      # tolerances and steps, diffrax Dopri8 only
     python scripts/compare_integrators.py --out docs/_static/work_precision   # the docs' figures
+    python scripts/compare_integrators.py --out docs/_static/work_precision --replot  # redraw only
+
+The diagrams keep one colour and marker per method in every panel, label each point with its
+tolerance (rtol) or step (dt), ring the settings ``lsc.solve`` uses by default, and state
+diffrax's compile time (left out of the plotted times) in the title.
 """
 
 from __future__ import annotations
@@ -172,32 +177,107 @@ def run_scene(name: str, scene, quick: bool, repeat: int) -> list[dict]:
     return rows
 
 
-def plot(rows: list[dict], name: str, title: str, out: Path) -> None:
-    """The work-precision diagram of one scene: ``out/work_precision_<name>.png``."""
-    import matplotlib
+#: Every method of the study, in a fixed order: its colour and marker are the same in every
+#: panel, whichever methods a scene has.
+ALL_METHODS = ["closed-form", "exact", "reference", *(f"scipy {i}" for i in SCIPY),
+               *(f"diffrax {i}" for i in DIFFRAX)]
+_MARKERS = "*PsovD^<>hX"
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 5))
-    methods = sorted({r["method"] for r in rows if r["scene"] == name})
+def method_style(method: str) -> dict:
+    """Colour and marker of a method, fixed across panels (:data:`ALL_METHODS`)."""
+    j = ALL_METHODS.index(method) if method in ALL_METHODS else len(ALL_METHODS)
+    return {"color": f"C{j % 10}" if j < len(ALL_METHODS) else "k",
+            "marker": _MARKERS[j % len(_MARKERS)]}
+
+
+def default_settings() -> dict[str, str]:
+    """method → its setting when ``lsc.solve`` is given none (read from the backends' own
+    signatures): the points marked "default" on the diagrams."""
+    import inspect
+    from lsc.solvers import reference, scipy_ode
+
+    def default(fn, name):
+        return inspect.signature(fn).parameters[name].default
+
+    out = {"reference": f"dt={default(reference.solve, 'dt'):g}",
+           f"scipy {default(scipy_ode.solve, 'integrator')}":
+               f"rtol={default(scipy_ode.solve, 'rtol'):g}"}
+    if have_diffrax():
+        from lsc.solvers import diffrax_ode
+        out[f"diffrax {default(diffrax_ode.solve, 'integrator')}"] = \
+            f"rtol={default(diffrax_ode.solve, 'rtol'):g}"
+    return out
+
+
+def _short_setting(setting: str) -> str:
+    """``"rtol=1e-06"`` → ``"1e-6"``, ``"dt=0.0003"`` → ``"3e-4"`` (a tolerance point's label)."""
+    value = setting.split("=", 1)[-1]
+    try:
+        value = f"{float(value):.0e}"
+    except ValueError:
+        pass
+    return value.replace("e-0", "e-").replace("e+0", "e+")
+
+
+def compile_note(rows: list[dict], name: str) -> str:
+    """The diffrax compile times of one scene (left out of the plotted times), in words."""
+    times = {}
+    for r in rows:
+        c = float(r["compile_s"])
+        if r["scene"] == name and np.isfinite(c):
+            times[r["method"]] = max(times.get(r["method"], 0.0), c)
+    if not times:
+        return ""
+    return ("JIT compile, not in the times: "
+            + ", ".join(f"{m.split(' ', 1)[-1]} up to {t:.2g} s" for m, t in times.items()))
+
+
+def figure(rows: list[dict], name: str, title: str, defaults: dict | None = None):
+    """The work-precision diagram of one scene as a matplotlib Figure: one colour and marker
+    per method (the same in every panel), each tolerance point labelled with its tolerance or
+    step, the default settings ringed, diffrax's compile time stated in the title."""
+    from matplotlib.figure import Figure
+
+    defaults = default_settings() if defaults is None else defaults
+    fig = Figure(figsize=(8.5, 5.2), layout="constrained")
+    ax = fig.add_subplot()
+    methods = [m for m in dict.fromkeys(r["method"] for r in rows if r["scene"] == name)]
+    methods.sort(key=lambda m: (ALL_METHODS + [m]).index(m))
+    ringed = False
     for m in methods:
-        pts = sorted((r["error"], r["time_s"]) for r in rows if r["scene"] == name and r["method"] == m)
-        e, t = zip(*pts)
-        ax.loglog(e, t, "o-" if len(e) > 1 else "*", label=m, markersize=5 if len(e) > 1 else 12)
+        pts = sorted((float(r["error"]), float(r["time_s"]), r["setting"])
+                     for r in rows if r["scene"] == name and r["method"] == m)
+        e, t, settings = zip(*pts)
+        style = method_style(m)
+        ax.loglog(e, t, "-" if len(e) > 1 else "none", marker=style["marker"],
+                  color=style["color"], label=m, markersize=5 if len(e) > 1 else 11)
+        for x, y, setting in pts:
+            if setting != "-":
+                ax.annotate(_short_setting(setting), (x, y), xytext=(3, 3),
+                            textcoords="offset points", fontsize=5.5, color=style["color"])
+            if defaults.get(m) == setting:
+                ax.plot(x, y, ls="none", marker="o", ms=13, mfc="none", mec="k", mew=1.2,
+                        label=None if ringed else "default setting of lsc.solve")
+                ringed = True
     agree = REF_AGREEMENT.get(name, 0.0)
     if agree > 0:
         ax.axvline(agree, color="0.5", ls="--", lw=1)
         ax.text(agree, ax.get_ylim()[1], " reference's own accuracy", color="0.4", fontsize=7,
                 va="top", rotation=90)
     ax.set_xlabel("max relative error (ΔV1, ΔV2, duration, peak force)")
-    ax.set_ylabel("time per solve (s)")
-    ax.set_title(f"Work–precision: {title}")
+    ax.set_ylabel("time per solve (s), compile excluded")
+    note = compile_note(rows, name)
+    ax.set_title(f"Work–precision: {title}" + (f"\ndiffrax {note}" if note else ""),
+                 fontsize="medium")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / f"work_precision_{name}.png", dpi=120)
-    plt.close(fig)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    return fig
+
+
+def plot(rows: list[dict], name: str, title: str, out: Path) -> None:
+    """The work-precision diagram of one scene: ``out/work_precision_<name>.png``."""
+    figure(rows, name, title).savefig(out / f"work_precision_{name}.png", dpi=120)
 
 
 def cheapest(rows: list[dict]) -> list[list[str]]:
@@ -242,7 +322,12 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="compare-out", help="output folder")
     ap.add_argument("--repeat", type=int, default=None, help="timed repeats per point")
     ap.add_argument("--scenes", nargs="*", default=list(SCENES), help="which scenes")
+    ap.add_argument("--replot", action="store_true",
+                    help="only redraw the diagrams from the --out folder's compare_integrators.csv "
+                         "(the references' agreement is recomputed; nothing is timed)")
     args = ap.parse_args(argv)
+    if args.replot:
+        return replot(Path(args.out), args.scenes)
     repeat = args.repeat or (1 if args.quick else 5)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -270,6 +355,19 @@ def main(argv=None) -> int:
         w.writerows(cheapest(rows))
     print(table)
     print(f"\nwrote {out}/compare_integrators.csv, {out}/cheapest.md and the PNG diagrams")
+    return 0
+
+
+def replot(out: Path, names) -> int:
+    """Redraw the diagrams of ``names`` from ``out/compare_integrators.csv``."""
+    with open(out / "compare_integrators.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for name in names:
+        if any(r["scene"] == name for r in rows):
+            scene = lsc.Scene.load(SCENES[name])
+            reference_metrics(name, scene)
+            plot(rows, name, scene.name, out)
+            print(f"redrew {out}/work_precision_{name}.png")
     return 0
 
 

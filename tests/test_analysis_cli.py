@@ -105,7 +105,7 @@ def test_sensitivity(main, tmp_path, capsys):
     assert d["elasticities"]["duration"][d["params"].index("contacts.0.loading.scale")] == \
         pytest.approx(-0.5, rel=1e-9)
     # finite differences, a chosen parameter list and metric
-    assert main(["sensitivity", str(f), "--method", "finite-difference", "--params",
+    assert main(["sensitivity", str(f), "--derivative", "finite-difference", "--params",
                  "vehicles.0.speed,vehicles.1.weight", "--metrics", "peak_acceleration_g"]) == 0
     text = capsys.readouterr().out
     assert "closed-form" in text and "vehicles.1.weight" not in text and "target weight" in text
@@ -114,12 +114,34 @@ def test_sensitivity(main, tmp_path, capsys):
 def test_sensitivity_errors(main, tmp_path, capsys):
     f = tmp_path / "t3.toml"
     f.write_text(TABLE3)
-    assert main(["sensitivity", str(f), "--method", "finite-difference", "--params",
+    assert main(["sensitivity", str(f), "--derivative", "finite-difference", "--params",
                  "vehicles.0.colour"]) == 2
     assert "not a differentiable parameter" in capsys.readouterr().err
-    assert main(["sensitivity", str(f), "--method", "finite-difference", "--metrics", "duration",
+    assert main(["sensitivity", str(f), "--derivative", "finite-difference", "--metrics", "duration",
                  "--plot", str(tmp_path / "x.png"), "--plot-metric", "delta_v"]) == 2
     assert "not among --metrics" in capsys.readouterr().err
+
+
+def test_sensitivity_method_is_the_backend_as_for_every_command(main, tmp_path, capsys):
+    f = tmp_path / "t3.toml"
+    f.write_text(TABLE3)
+    fd = ["sensitivity", str(f), "--derivative", "finite-difference", "--params",
+          "vehicles.0.speed", "--metrics", "delta_v"]
+    assert main(fd + ["--method", "scipy"]) == 0
+    assert "scipy" in capsys.readouterr().out        # the backend of the solves
+    assert main(fd + ["--method", "exact"]) == 0
+    assert "exact" in capsys.readouterr().out
+    # the old spellings: a clear error, not another meaning
+    assert main(["sensitivity", str(f), "--method", "finite-difference"]) == 2
+    err = capsys.readouterr().err
+    assert "--method is the backend" in err and "--derivative finite-difference" in err
+    assert main(fd + ["--backend", "scipy"]) == 2
+    assert capsys.readouterr().err == (
+        "lsc: error: backend: --backend is now --method (the backend of the solves, as for every "
+        "command); the derivative technique is --derivative autodiff|finite-difference\n")
+    assert main(["sensitivity", str(f), "--method", "scipy"]) == 2   # autodiff needs diffrax
+    assert "autodiff differentiates through the diffrax solve, not scipy" in \
+        capsys.readouterr().err
 
 
 def test_run_prints_the_mer_cross_check(main, tmp_path, capsys):
@@ -196,7 +218,7 @@ def test_sensitivity_files_all_or_none(main, tmp_path, capsys, monkeypatch):
     f = tmp_path / "t3.toml"
     f.write_text(TABLE3)
     js, png = tmp_path / "s.json", tmp_path / "t.png"
-    sens = ["sensitivity", str(f), "--method", "finite-difference", "--metrics", "delta_v",
+    sens = ["sensitivity", str(f), "--derivative", "finite-difference", "--metrics", "delta_v",
             "--json", str(js), "--plot"]
     assert main(sens + [str(js)]) == 2
     assert capsys.readouterr().err == f"lsc: error: json: --plot and --json name the same file " \

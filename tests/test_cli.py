@@ -350,3 +350,14 @@ def test_sweep_parquet_is_the_sweeps_table(tmp_path, capsys):
     expected = lsc.sweep(lsc.data.load("default"), {"vehicles.0.speed": [2.0, 4.0, 6.0]})
     pd.testing.assert_frame_equal(table, expected.to_dataframe(), check_like=True)
     assert "sweep.parquet" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("cmd", [["run", "--no-plots"],
+                                 ["sweep", "--param", "vehicles.0.speed=5,6", "--no-plots"]])
+def test_out_with_a_trailing_slash_is_printed_with_one_slash(tmp_path, capsys, cmd):
+    out = f"{tmp_path / 'results'}/"
+    rc, stdout, _ = _run([*cmd, "--out", out], capsys)
+    assert rc == 0
+    assert f"written to {out}: " in stdout and "//" not in stdout
+    rc, stdout, _ = _run([*cmd, "--out", out.rstrip("/"), "--overwrite"], capsys)
+    assert f"written to {out}: " in stdout

@@ -207,3 +207,122 @@ def test_tornado_swing_spans_the_first_order_range(sens, tmp_path):
     assert up.get_width() == pytest.approx(-down.get_width())
     assert abs(up.get_width()) == pytest.approx(abs(d[sens.params.index("vehicles.0.speed")])
                                                 * 5280 / 3600, rel=1e-12)
+
+
+# ------------------------------------------------------------------ styles, legends, labels
+EVERY_KIND = [*plots._EVENT_STYLE, "stable", "mode", "brake_stop", "contact+failure"]
+
+
+def test_each_event_kind_has_its_own_style():
+    from types import SimpleNamespace
+    from matplotlib.figure import Figure
+    from lsc.result import Event
+    fake = SimpleNamespace(events=[Event(0.01 * j, kind, 0) for j, kind in enumerate(EVERY_KIND)])
+    ax = Figure().add_subplot()
+    plots._mark_events(ax, fake)
+    lines = [l for l in ax.get_lines() if not l.get_label().startswith("_")]
+    assert len(lines) == len(EVERY_KIND)  # one legend entry per kind
+    looks = {(tuple(l._dash_pattern[1] or ()), l._dash_pattern[0],
+              tuple(np.round(mpl.colors.to_rgba(l.get_color()), 6))) for l in lines}
+    assert len(looks) == len(lines)  # no two kinds drawn alike
+    assert len({l.get_label() for l in lines}) == len(lines)
+
+
+def test_event_styles_on_a_real_run_are_distinct(si):
+    fig = plots.velocity(si)
+    ax = fig.axes[0]
+    lines = [l for l in ax.get_lines() if not l.get_label().startswith("_")
+             and l.get_label() not in [v.name for v in si.scene.vehicles]]
+    assert {l.get_label() for l in lines} >= {"contact", "separation", "table breakpoint"}
+    looks = {(tuple(l._dash_pattern[1] or ()), tuple(mpl.colors.to_rgba(l.get_color())))
+             for l in lines}
+    assert len(looks) == len(lines)
+
+
+def _overlaps(a, b) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+@pytest.mark.parametrize("draw", [plots.acceleration, plots.velocity, plots.ifd_loop])
+def test_legend_covers_no_data_nor_labels(us, draw):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+    draw(us, ax=fig.add_subplot())
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    ax = fig.axes[0]
+    r = canvas.get_renderer()
+    legend = ax.get_legend().get_window_extent(r)
+    assert not _overlaps(legend, ax.get_window_extent(r))          # off the data
+    assert not _overlaps(legend, ax.xaxis.get_tightbbox(r))       # and off the time axis
+    assert legend.y0 >= 0 and fig.bbox.x0 <= legend.x0 and legend.x1 <= fig.bbox.x1  # on the page
+
+
+def test_sweep_plot_axes_have_readable_names_and_units():
+    s = lsc.sweep(data.load("default"), {"vehicles.0.speed": [4.0, 8.0],
+                                          "contacts.0.unloading.restitution": [0.2, 0.4]},
+                  grid=True)
+    ax = plots.sweep_metric(s, "delta_v").axes[0]
+    assert ax.get_xlabel() == "initial speed of bullet [ft/s]"
+    assert ax.get_ylabel() == "ΔV of target [ft/s]"
+    assert _legend(ax) == ["restitution of contact 0 (bullet–target) = 0.2",
+                           "restitution of contact 0 (bullet–target) = 0.4"]
+    ax = plots.sweep_metric(s, "peak_acceleration_g", index=0).axes[0]
+    assert ax.get_ylabel() == "peak acceleration of bullet [g]"
+    ax = plots.sweep_metric(s, "peak_force").axes[0]
+    assert ax.get_ylabel() == "peak force of contact 0 (bullet–target) [lbf]"
+    si = lsc.sweep(SI_CHAIN, {"contacts.1.gap": [0.03, 0.05]})
+    assert plots.sweep_metric(si, "duration").axes[0].get_xlabel() == "gap of contact 1 (B–C) [m]"
+
+
+# ------------------------------------------------------------------ work-precision diagrams
+def _compare_script():
+    import importlib.util
+    from pathlib import Path
+    file = Path(__file__).resolve().parents[1] / "scripts" / "compare_integrators.py"
+    spec = importlib.util.spec_from_file_location("compare_integrators", file)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _wp_rows(scene, methods):
+    rows = []
+    for j, m in enumerate(methods):
+        settings = ["-"] if m in ("closed-form", "exact") else \
+            [f"dt={dt:g}" for dt in (1e-4, 1e-5)] if m == "reference" else \
+            [f"rtol={rt:g}" for rt in (1e-6, 1e-10)]
+        for k, setting in enumerate(settings):
+            rows.append({"scene": scene, "method": m, "setting": setting,
+                         "time_s": 1e-3 * (j + 1) * (k + 1), "error": 10.0 ** -(3 + 3 * k + j),
+                         "compile_s": 3.5 + k if m.startswith("diffrax") else float("nan")})
+    return rows
+
+
+def test_work_precision_figures_keep_one_colour_per_method_and_label_their_points():
+    ci = _compare_script()
+    defaults = {"scipy DOP853": "rtol=1e-10", "diffrax Dopri8": "rtol=1e-10",
+                "reference": "dt=1e-05"}
+    everything = ["closed-form", "exact", "reference", "scipy RK45", "scipy DOP853",
+                  "diffrax Dopri8"]
+    fewer = ["reference", "scipy DOP853", "diffrax Dopri8"]  # no exact backends here
+    rows = _wp_rows("a", everything) + _wp_rows("b", fewer)
+    colours = []
+    for name in ("a", "b"):
+        ax = ci.figure(rows, name, name, defaults=defaults).axes[0]
+        lines = {l.get_label(): l for l in ax.get_lines() if not l.get_label().startswith("_")}
+        colours.append({m: (mpl.colors.to_hex(l.get_color()), l.get_marker())
+                        for m, l in lines.items() if m in everything})
+        texts = {t.get_text() for t in ax.texts}
+        assert {"1e-6", "1e-10", "1e-4", "1e-5"} <= texts           # each point's tolerance
+        assert "default setting of lsc.solve" in lines
+        rings = {(float(l.get_xdata()[0]), float(l.get_ydata()[0])) for l in ax.get_lines()
+                 if l.get_markerfacecolor() == "none" and l.get_markersize() > 11}
+        assert rings == {(r["error"], r["time_s"]) for r in rows if r["scene"] == name
+                         and defaults.get(r["method"]) == r["setting"]} and rings
+        assert "Dopri8 up to 4.5 s" in ax.get_title()                # compile time, apart
+        assert "compile excluded" in ax.get_ylabel()
+    assert set(colours[1]) == set(fewer)
+    assert all(colours[0][m] == colours[1][m] for m in fewer)        # same look in both panels
+    assert len(set(colours[0].values())) == len(everything)          # and one per method

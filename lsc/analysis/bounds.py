@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..api import solve
+from ..display import unit_of
 from ..errors import SceneError, SimulationError
 from ..scene import Scene
 from ._common import (SummaryHTML, check_brent, check_contact, check_keywords, quantity, read_path,
@@ -41,7 +42,8 @@ class Bound(SummaryHTML):
     6 ft/s, 6011 lb) and ``bound_result`` its crash. ``rows``: ``(speed, Result)`` at each whole step
     from one step below ``step_speed`` to ``bound_speed`` (the paper's Table 3); the Result is
     ``None`` where the simulation cannot be completed (a loading table that ends too soon). ``evaluations``:
-    simulations run by the search.
+    simulations run by the search. ``step_unit``: the unit the step was given in (``"mph"``
+    for ``step="1 mph"``; ``None``: the scene's), the unit :meth:`summary` prints speeds in.
     """
 
     scene: Scene
@@ -57,11 +59,20 @@ class Bound(SummaryHTML):
     bound_result: object
     rows: list = field(default_factory=list)
     evaluations: int = 0
+    step_unit: str | None = None
 
-    def summary(self) -> str:
-        """Plain text: the root, the crash there, and the whole-step table (what ``lsc bound`` prints)."""
+    def summary(self, speed_unit: str | None = None) -> str:
+        """Plain text: the root, the crash there, and the whole-step table (what ``lsc bound``
+        prints). Speeds and ΔVs are printed in ``speed_unit`` (``"mph"``, ``"km/h"``, ``"ft/s"``,
+        ``"m/s"``), by default in the unit the step was given in (``step="1 mph"``: mph), else
+        the scene's; peak accelerations are signed, in g, as in :meth:`lsc.Result.summary`."""
+        from ..display import speed_display, velocity_display
         s = self.scene
-        u = {k: s.unit(k) for k in ("velocity", "force", "time")}
+        if speed_unit is None and self.step_unit is not None:
+            fv, vel = velocity_display(self.step_unit, s.units, "step")
+        else:
+            fv, vel = speed_display(speed_unit, s.units)
+        u = {k: s.unit(k) for k in ("force", "time")}
         k = self.contact
         names = [v.name for v in s.vehicles]
         r = self.result
@@ -69,35 +80,36 @@ class Bound(SummaryHTML):
             f"{s.name}: bound on the closing speed from the failure force "
             f"{self.failure_force:g} {u['force']} (contact {k}, {names[k]}-{names[k + 1]})",
             f"peak force reaches {self.failure_force:g} {u['force']} at {self.speed_path} = "
-            f"{self.speed:.6f} {u['velocity']} (closing speed {self.closing_speed:.6f} {u['velocity']}):",
-            "  delta_v " + ", ".join(f"{n} {dv:+.4f}" for n, dv in zip(names, r.delta_v))
-            + f" {u['velocity']}; peak acceleration "
-            + ", ".join(f"{n} {a:.3f} g" for n, a in zip(names, np.abs(r.peak_acceleration_g)))
+            f"{self.speed * fv:.6f} {vel} (closing speed {self.closing_speed * fv:.6f} {vel}):",
+            "  delta_v " + ", ".join(f"{n} {dv * fv:+.4f}" for n, dv in zip(names, r.delta_v))
+            + f" {vel}; peak acceleration "
+            + ", ".join(f"{n} {a:+.3f} g" for n, a in zip(names, r.peak_acceleration_g))
             + f"; pulse {r.duration:.5f} {u['time']}",
             "",
             f"{'speed':>8} {'peak force':>11} " + " ".join(f"{'dV ' + n:>12}" for n in names)
             + " " + " ".join(f"{'a ' + n:>10}" for n in names) + f" {'pulse':>8}",
-            f"{u['velocity']:>8} {u['force']:>11} " + " ".join(f"{u['velocity']:>12}" for _ in names)
+            f"{vel:>8} {u['force']:>11} " + " ".join(f"{vel:>12}" for _ in names)
             + " " + " ".join(f"{'g':>10}" for _ in names) + f" {u['time']:>8}",
         ]
         for v, rr in self.rows:
             if rr is None:
-                lines.append(f"{v:>8.4g}  could not be completed (the loading table ends before the "
-                             "vehicles reach a common velocity)")
+                lines.append(f"{v * fv:>8.4g}  could not be completed (the loading table ends "
+                             "before the vehicles reach a common velocity)")
                 continue
             note = ""
             if v == self.step_speed:
                 note = "  first whole step at or above the failure force"
             if v == self.bound_speed:
                 note = "  conservative bound"
-            lines.append(f"{v:>8.4g} {rr.peak_force[k]:>11.1f} "
-                         + " ".join(f"{dv:>12.3f}" for dv in rr.delta_v) + " "
-                         + " ".join(f"{a:>10.3f}" for a in np.abs(rr.peak_acceleration_g))
+            lines.append(f"{v * fv:>8.4g} {rr.peak_force[k]:>11.1f} "
+                         + " ".join(f"{dv * fv:>12.3f}" for dv in rr.delta_v) + " "
+                         + " ".join(f"{a:>+10.3f}" for a in rr.peak_acceleration_g)
                          + f" {rr.duration:>8.5f}" + note)
         lines.append("")
-        lines.append(f"conservative upper limit: {self.speed_path} <= {self.bound_speed:g} "
-                     f"{u['velocity']} (the first whole step of {self.step:g} {u['velocity']} at or "
-                     f"above {self.speed:.4f}, plus {round((self.bound_speed - self.step_speed) / self.step)})")
+        lines.append(f"conservative upper limit: {self.speed_path} <= {self.bound_speed * fv:g} "
+                     f"{vel} (the first whole step of {self.step * fv:g} {vel} at or "
+                     f"above {self.speed * fv:.4f}, plus "
+                     f"{round((self.bound_speed - self.step_speed) / self.step)})")
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
@@ -111,6 +123,7 @@ class Bound(SummaryHTML):
                     "peak_acceleration_g": r.peak_acceleration_g.tolist(), "duration": r.duration}
 
         return {"scene": self.scene.name, "unit_system": self.scene.units,
+                "units": {q: self.scene.unit(q) for q in ("velocity", "force", "time")},
                 "failure_force": self.failure_force, "contact": k, "speed_path": self.speed_path,
                 "speed": self.speed, "closing_speed": self.closing_speed,
                 "at_speed": row(self.speed, self.result), "step": self.step,
@@ -231,7 +244,7 @@ def max_closing_speed(scene, failure_force=None, *, contact: int = 0,
     sc_root = base.with_values({speed_path: float(root)})
     closing = float(sc_root.speeds[k] - sc_root.speeds[k + 1])
     return Bound(base, F, k, speed_path, float(root), closing, result, dv, float(first),
-                 float(bound_v), bound_result, rows, evals[0])
+                 float(bound_v), bound_result, rows, evals[0], unit_of(step))
 
 
 def _zero_force_speed(scene: Scene, path: str, k: int) -> tuple[float | None, bool]:

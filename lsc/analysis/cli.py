@@ -10,9 +10,9 @@
     lsc fit SCENE DATA --param PATH [--param ...] [--initial PATH=V] [--bounds PATH=LO:HI]
             [--method M] [--cfc C] [--time-zero T] [--errors autocorrelated|independent]
             [--out DIR] [--no-plots] [--overwrite]
-    lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...] [--method diffrax|finite-difference]
-                    [--rtol R] [--backend B] [--plot FILE] [--plot-metric M] [--swing R] [--json FILE]
-                    [--overwrite]
+    lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...]
+                    [--derivative autodiff|finite-difference] [--method M] [--rtol R]
+                    [--plot FILE] [--plot-metric M] [--swing R] [--json FILE] [--overwrite]
 
 Each is a pair ``add_<name>(subparsers)`` / ``cmd_<name>(args)`` (returns the exit status), as in
 :mod:`lsc.cli`; :class:`lsc.SceneError` and :class:`lsc.SimulationError` propagate to its
@@ -26,7 +26,8 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from ..cli import add_overwrite_option, json_writer, parquet_writer, require_parquet
+from ..cli import (add_overwrite_option, add_speed_unit_option, json_writer, parquet_writer,
+                   require_parquet)
 from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
@@ -63,6 +64,7 @@ def add_bound(sub) -> None:
                    help="steps above the first whole step at or above the root (default 1)")
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
     p.add_argument("--json", metavar="FILE", help="also write the bound as JSON")
+    add_speed_unit_option(p, "the speeds and delta-Vs (default: the unit of --step)")
     add_overwrite_option(p)
     p.set_defaults(func=cmd_bound)
 
@@ -70,14 +72,16 @@ def add_bound(sub) -> None:
 def cmd_bound(args) -> int:
     """Run ``lsc bound``: print the bound's summary (and write JSON)."""
     from ..cli import resolve_scene
+    from ..display import speed_display
     from .bounds import max_closing_speed
     scene = resolve_scene(args.scene)
+    speed_display(args.speed_unit, scene.units, "--speed-unit")  # before the search
     files = [Path(args.json)] if args.json else []
     refuse_existing(files, args.overwrite)
     b = max_closing_speed(scene, args.failure_force, contact=args.contact,
                           speed_path=args.speed_path, method=args.method, step=args.step,
                           margin_steps=args.margin_steps)
-    print(b.summary())
+    print(b.summary(speed_unit=args.speed_unit))
     write_files({f: json_writer(b.to_dict()) for f in files}, overwrite=args.overwrite)
     return 0
 
@@ -199,10 +203,29 @@ def _names(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
 
+#: ``lsc sensitivity --derivative``: the technique → the ``method`` of :func:`lsc.analysis.sensitivity`.
+DERIVATIVES = {"autodiff": "diffrax", "finite-difference": "finite-difference"}
+
+
+def _sensitivity_backend(text: str) -> str:
+    """``--method`` of ``lsc sensitivity``: a backend, as for every command; the derivative
+    techniques that ``--method`` named before are refused with a pointer to ``--derivative``."""
+    import argparse
+    from ..scene import METHODS
+    if text in METHODS:
+        return text
+    if text in DERIVATIVES:
+        raise argparse.ArgumentTypeError(
+            f"--method is the backend of the solves ({', '.join(METHODS)}), as for every "
+            f"command; the derivative technique is --derivative {text}")
+    raise argparse.ArgumentTypeError(f"invalid backend {text!r} (choose from "
+                                     f"{', '.join(METHODS)})")
+
+
 def add_sensitivity(sub) -> None:
     """Declare ``lsc sensitivity``."""
-    from ..scene import METHODS
-    from .sensitivity import DEFAULT_METRICS, METHODS as SMETHODS
+    import argparse
+    from .sensitivity import DEFAULT_METRICS
     p = sub.add_parser("sensitivity", help="derivatives of delta-V, peak acceleration and duration "
                        "with respect to masses, speeds, stiffness and restitution",
                        description="Sensitivities of the crash metrics to the scene's parameters, "
@@ -215,11 +238,14 @@ def add_sensitivity(sub) -> None:
                         "each contact's stiffness or force scale and restitution)")
     p.add_argument("--metrics", type=_names, default=list(DEFAULT_METRICS), metavar="M,M,...",
                    help="metrics (default " + ",".join(DEFAULT_METRICS) + ")")
-    p.add_argument("--method", choices=SMETHODS, default="diffrax",
-                   help="diffrax (autodiff, default) or finite-difference")
+    p.add_argument("--derivative", choices=tuple(DERIVATIVES), default="autodiff",
+                   help="autodiff (forward mode through the diffrax solve, default) or "
+                        "finite-difference (central differences of the --method solves)")
+    p.add_argument("--method", type=_sensitivity_backend, default=None, metavar="M",
+                   help="backend of the solves: diffrax for autodiff (the default there); any "
+                        "backend for finite differences (default auto)")
     p.add_argument("--rtol", type=float, default=1e-12, help="solver tolerance (default 1e-12)")
-    p.add_argument("--backend", choices=METHODS, default="auto",
-                   help="finite differences: the backend of each solve (default auto)")
+    p.add_argument("--backend", help=argparse.SUPPRESS)  # the old name of --method: refused
     p.add_argument("--plot", metavar="FILE", help="write a tornado chart (PNG, SVG, PDF)")
     p.add_argument("--plot-metric", default=None, metavar="M",
                    help="the metric of the tornado chart (default: the first of --metrics; the "
@@ -232,15 +258,32 @@ def add_sensitivity(sub) -> None:
     p.set_defaults(func=cmd_sensitivity)
 
 
+def _sensitivity_options(args) -> dict:
+    """``method`` and ``backend`` of :func:`lsc.analysis.sensitivity` from ``--derivative`` and
+    ``--method``; :class:`lsc.SceneError` for the old ``--backend`` and for autodiff through a
+    backend other than diffrax."""
+    if args.backend is not None:
+        raise SceneError("backend", "--backend is now --method (the backend of the solves, as "
+                                    "for every command); the derivative technique is "
+                                    "--derivative autodiff|finite-difference")
+    if args.derivative == "autodiff":
+        if args.method not in (None, "diffrax"):
+            raise SceneError("method", f"autodiff differentiates through the diffrax solve, not "
+                                       f"{args.method}; use --method diffrax, or --derivative "
+                                       "finite-difference for another backend")
+        return {"method": DERIVATIVES["autodiff"]}
+    return {"method": DERIVATIVES["finite-difference"], "backend": args.method or "auto"}
+
+
 def cmd_sensitivity(args) -> int:
     """Run ``lsc sensitivity``: print the table (and write a tornado chart / JSON)."""
     from ..cli import resolve_scene
     from .sensitivity import sensitivity
+    options = _sensitivity_options(args)
     scene = resolve_scene(args.scene)
     files = _sensitivity_files(args)
     refuse_existing(files.values(), args.overwrite)
-    s = sensitivity(scene, args.params, metrics=args.metrics, method=args.method, rtol=args.rtol,
-                    backend=args.backend)
+    s = sensitivity(scene, args.params, metrics=args.metrics, rtol=args.rtol, **options)
     print(s.summary())
     metric = args.plot_metric or args.metrics[0]
     if args.plot and metric not in s.derivatives:

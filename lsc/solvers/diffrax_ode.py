@@ -76,6 +76,7 @@ import time
 import numpy as np
 
 import jax
+from . import jax_setup  # noqa: E402, F401  (the persistent compilation cache, before any compile)
 
 jax.config.update("jax_enable_x64", True)
 
