@@ -262,11 +262,13 @@ class Result:
     def summary(self, speed_unit: str | None = None) -> str:
         """A plain-text summary table (what ``lsc run`` prints).
 
-        ``speed_unit`` (``"mph"``, ``"km/h"``, ``"ft/s"``, ``"m/s"``; default the scene's)
-        is the unit the speeds and ΔVs are printed in; everything else stays in the scene's
-        units, accelerations in g beside them. Raises :class:`lsc.SceneError` for another unit.
+        ``speed_unit`` (``"mph"``, ``"km/h"``, ``"ft/s"``, ``"m/s"``; default the scene's
+        ``[display] speed_unit``, else its velocity unit) is the unit the speeds and ΔVs are
+        printed in; everything else stays in the scene's units, accelerations in g beside them.
+        Raises :class:`lsc.SceneError` for another unit.
         """
         from .display import speed_display
+        speed_unit = speed_unit if speed_unit is not None else self.scene.speed_unit
         fv, vel = speed_display(speed_unit, self.scene.units)
         u = self.units
         s = self.scene

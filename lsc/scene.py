@@ -159,6 +159,9 @@ class Scene:
     solver: SolverSettings = field(default_factory=SolverSettings)
     source: dict = field(default_factory=dict)
     base_dir: Path | None = None
+    #: The unit speeds and ΔVs are printed in (``[display] speed_unit``: ``"mph"``, ``"km/h"``,
+    #: ``"ft/s"``, ``"m/s"``; ``None``: the scene's velocity unit). Results keep scene units.
+    speed_unit: str | None = None
 
     @property
     def n_vehicles(self) -> int:
@@ -213,7 +216,7 @@ from .units import _expected, _type_name, parse_number as _parse_number, to_syst
 #: Solver methods accepted in ``[solver] method``.
 METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
 
-_TOP_KEYS = ("name", "units", "g", "vehicles", "contacts", "solver", "uncertainty")
+_TOP_KEYS = ("name", "units", "g", "vehicles", "contacts", "solver", "uncertainty", "display")
 _VEHICLE_KEYS = ("name", "weight", "mass", "speed", "brake")
 _BRAKE_KEYS = ("mu", "mu_static")
 _COLUMN_KEYS = ("deformation", "force")
@@ -935,10 +938,23 @@ def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
         raise SceneError("uncertainty", "a table of dotted scene paths to distributions "
                          "(used by lsc.analysis.monte_carlo / `lsc mc`), got "
                          f"{_shown(src['uncertainty'])}")
+    speed_unit = _display(src["display"], ctx) if "display" in src else None
     _check_closing(vehicles, ctx)
     _check_relative_speeds(vehicles, ctx)
     _check_gaps(vehicles, contacts, ctx)
-    return Scene(name, ctx.units, ctx.g, vehicles, contacts, solver, source, base_dir)
+    return Scene(name, ctx.units, ctx.g, vehicles, contacts, solver, source, base_dir, speed_unit)
+
+
+def _display(value, ctx) -> str:
+    """The ``[display]`` table: ``speed_unit``, one of :data:`lsc.display.SPEED_UNITS`."""
+    from .display import SPEED_UNITS, speed_display
+    _table(value, "display", ("speed_unit",), '{ speed_unit = "mph" }')
+    unit = value.get("speed_unit")
+    if not isinstance(unit, str):
+        raise SceneError("display.speed_unit", f"a unit name, one of {', '.join(SPEED_UNITS)}; got "
+                                               f"{_shown(unit)}")
+    speed_display(unit, ctx.units, "display.speed_unit")
+    return unit
 
 
 def _load(obj, *, base_dir=None) -> Scene:

@@ -172,3 +172,27 @@ def test_every_row_of_each_table_has_the_same_column_positions(names):
         # each field ends where its header and unit end (right-aligned columns)
         assert ends[0] <= _column_ends(header, label), (header, rows)
         assert _column_ends(units, label) <= ends[0], (units, rows)
+
+
+def test_scene_display_speed_unit_is_the_summarys_default_and_the_cli_overrides_it(capsys,
+                                                                                   tmp_path):
+    """``[display] speed_unit`` prints the summary in that unit (results keep scene units);
+    ``--speed-unit`` overrides it; a unit not accepted is a SceneError naming the key."""
+    scene = {**paper_scene(), "display": {"speed_unit": "mph"}}
+    r = lsc.solve(scene, method="exact")
+    assert r.scene.speed_unit == "mph" and r.delta_v[1] == pytest.approx(7.0, rel=1e-12)
+    assert r.summary() == r.summary(speed_unit="mph") != r.summary(speed_unit="ft/s")
+    file = tmp_path / "crash.toml"
+    file.write_text('units = "US"\ng = "32.2 ft/s^2"\n[display]\nspeed_unit = "km/h"\n'
+                    '[[vehicles]]\nweight = 3500\nspeed = 10\n[[vehicles]]\nweight = 3500\n'
+                    'speed = 0\n[[contacts]]\nloading = { stiffness = 24000 }\n'
+                    'unloading = { restitution = 0.4 }\n')
+    assert main(["run", str(file), "--no-plots", "--out", str(tmp_path / "a")]) == 0
+    assert "speeds in km/h" in capsys.readouterr().out
+    assert main(["run", str(file), "--no-plots", "--out", str(tmp_path / "b"),
+                 "--speed-unit", "mph"]) == 0
+    assert "speeds in mph" in capsys.readouterr().out
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.Scene.load({**paper_scene(), "display": {"speed_unit": "knots"}})
+    assert str(e.value) == ("display.speed_unit: unknown speed unit 'knots'; accepted: mph, km/h, "
+                            "ft/s, m/s")
