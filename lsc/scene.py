@@ -222,7 +222,7 @@ _BRAKE_KEYS = ("mu", "mu_static")
 _COLUMN_KEYS = ("deformation", "force")
 _LOADING_KINDS = ("stiffness", "table", "csv", "series")
 _LOADING_KEYS = _LOADING_KINDS + ("scale",) + _COLUMN_KEYS
-_UNLOADING_KINDS = ("restitution", "stiffness", "table")
+_UNLOADING_KINDS = ("restitution", "stiffness", "table", "csv")
 _UNLOADING_KEYS = _UNLOADING_KINDS + _COLUMN_KEYS
 _FAILURE_KEYS = ("force", "post_failure")
 _CONTACT_COMMON_KEYS = ("law", "gap", "failure")
@@ -547,13 +547,13 @@ def _loading(spec, path: str, ctx: _Ctx) -> Curve:
 
 
 def _unloading(spec, path: str, ctx: _Ctx, loading: Curve):
-    """An unloading spec (``restitution`` | ``stiffness`` | ``table``) → its rule."""
+    """An unloading spec (``restitution`` | ``stiffness`` | ``table`` | ``csv``) → its rule."""
     spec = _table(spec, path, _UNLOADING_KEYS, "{ restitution = 0.4 }")
     kind = _one_of(spec, _UNLOADING_KINDS, path, "the unloading branch")
-    if kind != "table":
+    if kind not in ("table", "csv"):
         for key in _COLUMN_KEYS:
             if key in spec:
-                raise SceneError(_p(path, key), f"column units apply to a table, not to {kind}")
+                raise SceneError(_p(path, key), f"column units apply to a table or csv, not to {kind}")
     sub = _p(path, kind)
     if kind == "restitution":
         e = _qty(spec, kind, "dimensionless", ctx, path)
@@ -569,7 +569,8 @@ def _unloading(spec, path: str, ctx: _Ctx, loading: Curve):
                                   f"than the crush absorbed; use a stiffness >= {loading.stiffness:g} "
                                   f"or give restitution")
         return UnloadingStiffness(s)
-    pts = _points(spec["table"], sub, _columns(spec, ctx, path), ctx)
+    read = _points if kind == "table" else _read_csv  # a csv: the same points, from a file
+    pts = read(spec[kind], sub, _columns(spec, ctx, path), ctx)
     if pts.shape[0] < 2:
         raise SceneError(sub, f"an unloading table needs at least two points, got {pts.shape[0]}")
     d, f = pts[:, 0].copy(), pts[:, 1].copy()
@@ -596,7 +597,8 @@ def _hysteresis(spec: dict, path: str, ctx: _Ctx) -> Hysteresis:
     loading = _loading(spec["loading"], _p(path, "loading"), ctx)
     if "unloading" not in spec:
         raise SceneError(_p(path, "unloading"),
-                         "is required: { restitution = e } or { stiffness = ... } or { table = ... }")
+                         "is required: { restitution = e } or { stiffness = ... } or { table = ... } "
+                         "or { csv = ... }")
     unloading = _unloading(spec["unloading"], _p(path, "unloading"), ctx, loading)
     return Hysteresis(loading, unloading)
 

@@ -892,3 +892,28 @@ def test_fuzz_only_scene_errors(data, fuzz_dir):
     event("solved")
     for name in FINITE:
         assert np.all(np.isfinite(getattr(r, name))), (name, getattr(r, name))
+
+
+def test_unloading_branch_from_a_csv_equals_the_same_table(tmp_path):
+    """``unloading = { csv = ... }`` (with column units) is the unloading table it holds: the
+    crash is the same to the last bit; its rows get the unloading table's checks."""
+    import lsc
+    table = [[3.6, 9000.0], [2.4, 4000.0], [1.44, 0.0]]   # deformation in inches
+    (tmp_path / "rebound.csv").write_text("deformation [in],force [lbf]\n"
+                                          + "".join(f"{d},{f}\n" for d, f in table))
+    base = {"units": "US", "g": "32.2 ft/s^2",
+            "vehicles": [{"weight": 3500, "speed": 10}, {"weight": 3500, "speed": 0}],
+            "contacts": [{"loading": {"stiffness": 24000},
+                          "unloading": {"table": table, "deformation": "in"}}]}
+    from_csv = copy.deepcopy(base)
+    from_csv["contacts"][0]["unloading"] = {"csv": "rebound.csv", "deformation": "in"}
+    a = lsc.solve(base, method="exact")
+    b = lsc.solve(lsc.Scene.load(from_csv, base_dir=tmp_path), method="exact")
+    np.testing.assert_array_equal(a.delta_v, b.delta_v)
+    np.testing.assert_array_equal(a.permanent_deformation, b.permanent_deformation)
+    (tmp_path / "bad.csv").write_text("0.1,100\n0.2,0\n")
+    from_csv["contacts"][0]["unloading"] = {"csv": "bad.csv"}
+    with pytest.raises(lsc.SceneError) as e:
+        lsc.Scene.load(from_csv, base_dir=tmp_path)
+    assert str(e.value) == ("contacts[0].unloading.csv: deformation must strictly decrease along "
+                            "the rebound (in time order); point 1 has 0.2 after 0.1")
