@@ -282,7 +282,8 @@ def linear_chains(draw):
     e = [draw(st.one_of(st.just(0.0), st.floats(1e-3, 1.0))) for _ in range(n - 1)]
     # (no contact touching with no closing rate: when it closes is set below every tolerance,
     # see _conditioning)
-    gaps = [draw(st.one_of(st.just(0.0), st.floats(0.0, 0.5))) if c > 0 else
+    # (a gap is 0 or within the magnitudes a scene accepts, lsc.scene.MAGNITUDES)
+    gaps = [draw(st.one_of(st.just(0.0), st.floats(1e-6, 0.5))) if c > 0 else
             draw(st.floats(0.01, 0.5)) for c in closing]
     return m, v, k, e, gaps
 
