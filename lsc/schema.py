@@ -79,7 +79,7 @@ def _loading() -> dict:
             "items": False}
     props = {
         "stiffness": _quantity("stiffness", "a straight loading line F = k D", 0),
-        "table": {"type": "array", "items": pair,
+        "table": {"type": "array", "minItems": 2, "items": pair,
                   "description": "[deformation, force] pairs, from the origin"},
         "csv": {"type": "string", "minLength": 1,
                 "description": "a CSV file of two columns (deformation, force); a relative path "
