@@ -44,11 +44,13 @@ def test_cli_writes_the_schema_and_refuses_to_overwrite(tmp_path, capsys):
 
 
 def _docs_blocks():
-    """The TOML code blocks of docs/scenes.rst that are whole scenes (they have vehicles)."""
+    """The TOML code blocks of docs/scenes.rst, each laid over the default scene (a block's
+    top-level keys replace the scene's: a ``[[contacts]]`` block becomes its one contact)."""
     text = (ROOT / "docs" / "scenes.rst").read_text("utf-8")
     blocks = re.findall(r"\.\. code-block:: toml\n\n((?:(?:   .*)?\n)+)", text)
-    out = [tomllib.loads("\n".join(line[3:] for line in b.splitlines())) for b in blocks]
-    return [b for b in out if "vehicles" in b]
+    base = tomllib.loads(data.path("default").read_text("utf-8"))
+    return [{**base, **tomllib.loads("\n".join(line[3:] for line in b.splitlines()))}
+            for b in blocks]
 
 
 SCENES = ([(f"lsc.data:{n}", tomllib.loads(data.path(n).read_text("utf-8"))) for n in data.names()]
@@ -61,6 +63,12 @@ SCENES = ([(f"lsc.data:{n}", tomllib.loads(data.path(n).read_text("utf-8"))) for
 def test_good_scenes_validate(name, scene):
     errors = [f"{'/'.join(map(str, e.absolute_path))}: {e.message}" for e in VALIDATOR.iter_errors(scene)]
     assert errors == []
+    Scene.load(scene, base_dir=ROOT / "docs" / "examples")  # and the loader accepts it
+
+
+def test_every_docs_block_is_checked():
+    text = (ROOT / "docs" / "scenes.rst").read_text("utf-8")
+    assert len(_docs_blocks()) == text.count(".. code-block:: toml") >= 6
 
 
 def test_every_packaged_scene_is_checked():
