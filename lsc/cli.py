@@ -330,6 +330,29 @@ def _cmd_scenes(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- lsc schema
+def _add_schema(sub) -> None:
+    p = sub.add_parser("schema", help="print the JSON Schema of the scene format",
+                       description="Print the JSON Schema (draft 2020-12) of the scene format, "
+                                   "generated from the scene loader (the package ships it as "
+                                   "lsc/data/scene.schema.json).")
+    p.add_argument("--out", type=Path, help="write it to this file instead of printing it")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    p.set_defaults(func=_cmd_schema)
+
+
+def _cmd_schema(args) -> int:
+    from .schema import schema_text
+    text = schema_text()
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    write_files({args.out: lambda tmp: Path(tmp).write_text(text, encoding="utf-8")},
+                overwrite=args.overwrite)
+    print(f"schema written to {args.out}")
+    return 0
+
+
 # --------------------------------------------------------------------------- lsc report
 DEFAULT_REPORT = "report.html"
 
@@ -375,7 +398,7 @@ def _cmd_report(args) -> int:
 
 # --------------------------------------------------------------------------- the parser
 #: The subcommands, in the order ``lsc --help`` lists them (then the analyses: bound, mc).
-COMMANDS = [_add_run, _add_sweep, _add_scenes, _add_report]
+COMMANDS = [_add_run, _add_sweep, _add_scenes, _add_schema, _add_report]
 
 
 def _analysis_commands() -> list:

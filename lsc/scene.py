@@ -226,8 +226,13 @@ _UNLOADING_KINDS = ("restitution", "stiffness", "table", "csv")
 _UNLOADING_KEYS = _UNLOADING_KINDS + _COLUMN_KEYS
 _FAILURE_KEYS = ("force", "post_failure")
 _CONTACT_COMMON_KEYS = ("law", "gap", "failure")
-_SOLVER_KEYS = ("method", "rtol", "atol", "dt", "integrator", "t_end", "max_events", "max_steps",
-                "n_samples")
+#: The ``[solver]`` options by kind: tolerances (plain numbers), times, whole-number counts.
+_SOLVER_TOLERANCES = ("rtol", "atol")
+_SOLVER_TIMES = ("dt", "t_end")
+_SOLVER_COUNTS = ("max_events", "max_steps", "n_samples")
+_SOLVER_KEYS = ("method",) + _SOLVER_TOLERANCES + _SOLVER_TIMES + ("integrator",) + _SOLVER_COUNTS
+_METHOD_ALIASES = {"closed": "closed-form", "closedform": "closed-form"}
+_DISPLAY_KEYS = ("speed_unit",)
 _MAX_DEPTH = 64
 _MISSING = object()
 
@@ -635,7 +640,7 @@ def _damping_law(law: str):
         if law == "brach":
             c1 = _qty(spec, "damping", dkind, ctx, path, default=0.0, minimum=0.0, strict=False,
                       hint=dhint)
-            if ("damping_restitution" in spec) == ("restitution" in spec):
+            if _not_exactly_one(spec, law):
                 raise SceneError(path, "Brach's law needs exactly one of damping_restitution (c2) "
                                        "or restitution (the target e, which sets c2)")
             if "restitution" in spec:
@@ -643,7 +648,7 @@ def _damping_law(law: str):
             c2 = _qty(spec, "damping_restitution", dkind, ctx, path, minimum=0.0, strict=False,
                       hint=dhint)
             return Damping(law, k, n, c1, c2, None)
-        if ("damping" in spec) == ("restitution" in spec):
+        if _not_exactly_one(spec, law):
             raise SceneError(path, f"the {law} law needs exactly one of damping or restitution "
                                    "(the target e, converted by the law's own relation)")
         if "restitution" in spec:
@@ -651,6 +656,12 @@ def _damping_law(law: str):
         return Damping(law, k, n, _qty(spec, "damping", dkind, ctx, path, minimum=0.0,
                                        strict=False, hint=dhint), None, None)
     return build
+
+
+def _not_exactly_one(spec: dict, law: str) -> bool:
+    """Whether ``spec`` holds none or both of the law's :data:`_DAMPING_CHOICES` (none or both)."""
+    a, b = _DAMPING_CHOICES[law]
+    return (a in spec) == (b in spec)
 
 
 def _stiffness_kind(n: float) -> str:
@@ -666,6 +677,10 @@ def _stiffness_kind(n: float) -> str:
 
 
 _DAMPING_KEYS = ("stiffness", "damping", "restitution")
+#: The two keys of which each damping law takes exactly one (the other damping keys are optional).
+_DAMPING_CHOICES = {"kelvin": ("damping", "restitution"),
+                    "hunt-crossley": ("damping", "restitution"),
+                    "brach": ("damping_restitution", "restitution")}
 
 #: Contact laws this loader builds: name → (law-specific keys, builder(spec, path, ctx)).
 _CONTACT_LAWS = {
@@ -762,12 +777,12 @@ def _solver(spec, ctx: _Ctx) -> SolverSettings:
     path = "solver"
     spec = _table(spec, path, _SOLVER_KEYS, '{ method = "auto" }')
     method = _choice(spec.get("method", "auto"), METHODS, _p(path, "method"), "solver method",
-                     aliases={"closed": "closed-form", "closedform": "closed-form"})
+                     aliases=_METHOD_ALIASES)
     options = {}
-    for key in ("rtol", "atol"):
+    for key in _SOLVER_TOLERANCES:
         if key in spec:
             options[key] = _qty(spec, key, "dimensionless", ctx, path, minimum=0.0)
-    for key in ("dt", "t_end"):
+    for key in _SOLVER_TIMES:
         if key in spec:
             options[key] = _qty(spec, key, "time", ctx, path, minimum=0.0)
     if "integrator" in spec:
@@ -775,7 +790,7 @@ def _solver(spec, ctx: _Ctx) -> SolverSettings:
         if not isinstance(name, str) or not name.strip():
             raise SceneError(_p(path, "integrator"), f"an integrator is a name (e.g. \"DOP853\"), got {_shown(name)}")
         options["integrator"] = name.strip()
-    for key in ("max_events", "max_steps", "n_samples"):
+    for key in _SOLVER_COUNTS:
         if key in spec:
             n = _qty(spec, key, "dimensionless", ctx, path, minimum=0.0)
             if n != int(n):
@@ -950,7 +965,7 @@ def _build(src: dict, base_dir: Path, default_name: str, source: dict) -> Scene:
 def _display(value, ctx) -> str:
     """The ``[display]`` table: ``speed_unit``, one of :data:`lsc.display.SPEED_UNITS`."""
     from .display import SPEED_UNITS, speed_display
-    _table(value, "display", ("speed_unit",), '{ speed_unit = "mph" }')
+    _table(value, "display", _DISPLAY_KEYS, '{ speed_unit = "mph" }')
     unit = value.get("speed_unit")
     if not isinstance(unit, str):
         raise SceneError("display.speed_unit", f"a unit name, one of {', '.join(SPEED_UNITS)}; got "
