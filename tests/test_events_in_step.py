@@ -151,3 +151,25 @@ def test_a_pair_that_closes_again_within_the_horizon_is_not_over():
     assert len(contacts0) >= 2
     m = np.array([6000, 3000, 3000.0])
     assert abs(m @ r.v_final - m @ [10, 0, 0]) <= 1e-12 * m @ [10, 0, 0]
+
+
+def test_diffrax_dip_floor_sees_a_dip_between_its_sample_points():
+    """diffrax's in-step test: a parabola dipping to -d exactly between two of the 129 points at
+    which the step's event series is evaluated (both read 0: sampling alone sees no dip) has a
+    floor of -d from the curvature bound; a series whose slope shows it monotone has its least
+    sampled value as floor."""
+    pytest.importorskip("diffrax")
+    from numpy.polynomial import chebyshev as C
+    from lsc.solvers import diffrax_ode as dx
+    h = 2.0 / (dx._DIP_POINTS - 1)
+    s0, d = -1.0 + 64.5 * h, 1e-6                   # between points 64 and 65
+    K = 4 * d / h ** 2                              # q(s0 ± h/2) = 0
+    q = C.poly2cheb([K * s0 ** 2 - d, -2 * K * s0, K])
+    coef = np.zeros((10, 2))
+    coef[:3, 0] = q
+    coef[:2, 1] = [0.5, 0.25]                       # 0.5 + 0.25 s: monotone, least 0.25
+    sampled = np.min(dx._CHEB_DIP @ coef, axis=0)
+    floor = dx.dip_floor(coef)
+    assert sampled[0] >= -1e-15                     # sampling alone misses the dip...
+    assert floor[0] <= -d * (1 - 1e-9)              # ...the bound does not
+    assert floor[1] == pytest.approx(0.25, abs=1e-15)

@@ -119,6 +119,28 @@ _BARY = (-1.0) ** np.arange(10) * np.where((np.arange(10) == 0) | (np.arange(10)
 _CHEB_FIT = np.linalg.inv(np.polynomial.chebyshev.chebvander(2 * _THETA - 1, 9))
 _DIP_POINTS = 129
 _CHEB_DIP = np.polynomial.chebyshev.chebvander(np.linspace(-1.0, 1.0, _DIP_POINTS), 9)
+#: ... and the series' derivative there (d/ds of the series on [-1, 1])
+_CHEB_DIP_SLOPE = _CHEB_DIP[:, :9] @ np.polynomial.chebyshev.chebder(np.eye(10))
+#: A bound on a series' second derivative on [-1, 1] per unit |coefficient|: |T_j''| <= j²(j²-1)/3
+_CHEB_CURVATURE = np.arange(10.0) ** 2 * (np.arange(10.0) ** 2 - 1.0) / 3.0
+#: The spacing of the dip points on [-1, 1]
+_DIP_SPACING = 2.0 / (_DIP_POINTS - 1)
+
+
+def dip_floor(coef, xp=np):
+    """A lower bound, on [-1, 1], of each Chebyshev series (degree 9) of ``coef`` (10, n): its
+    values at :data:`_DIP_POINTS` points, less nothing between two points where the slope
+    shows it monotone (``|q'| > M h`` at both, of one sign), else ``M h²/8``, with
+    ``M = Σ |c_j| j²(j²-1)/3`` a bound on ``|q''|`` and ``h`` the spacing (n,)."""
+    q, dq = xp.asarray(_CHEB_DIP) @ coef, xp.asarray(_CHEB_DIP_SLOPE) @ coef
+    curvature = xp.asarray(_CHEB_CURVATURE) @ xp.abs(coef)
+    monotone = (dq[:-1] * dq[1:] > 0) & \
+        (xp.minimum(xp.abs(dq[:-1]), xp.abs(dq[1:])) > curvature * _DIP_SPACING)
+    lowest = xp.minimum(q[:-1], q[1:]) - xp.where(monotone, 0.0,
+                                                  curvature * _DIP_SPACING ** 2 / 8)
+    return xp.min(lowest, axis=0)
+
+
 #: Longest step, in radians of the fastest natural oscillation of the frozen contacts (the SciPy
 #: backend's ``MAX_ANGLE``): diffrax sees an event only at the ends of a step, so a step longer
 #: than half an oscillation can cross an event surface and come back unseen (a rebound of
@@ -557,17 +579,28 @@ class _Core:
     def _hidden(self, t0, t1, y1, dense, args):
         """Whether an armed event crosses zero and back inside the step ``[t0, t1]`` unseen at its
         ends: its value over its scale is positive at the end (on the integrator's state ``y1``)
-        and below ``-depth`` inside. Along the step's interpolant (a polynomial of degree < 10)
-        an event function linear in the state is a polynomial of that degree: its Chebyshev
-        series is fitted exactly at the :data:`_THETA` points and evaluated at
-        :data:`_DIP_POINTS` points across the step (a dip narrower than 1/128 of the step
-        between two of them is not seen; the SciPy backend finds every root)."""
+        and may be below ``-depth`` inside. Along the step's interpolant (a polynomial of degree
+        < 10) an event function linear in the state is a polynomial ``q`` of that degree: its
+        Chebyshev series is fitted exactly at the :data:`_THETA` points and evaluated, with its
+        slope, at :data:`_DIP_POINTS` points across the step. Between two neighbouring points
+        (``h`` apart on [-1, 1]) ``|q''| <= M = Σ |c_j| j²(j²-1)/3``, so ``q`` is monotone there
+        where ``|q'| > M h`` at a point (its least value is then a sampled one), and otherwise
+        at least the lower sampled value less ``M h²/8``: a dip below ``-depth`` cannot hide
+        between the points. A step where one may be inside is rejected (retried shorter);
+        the bound tightens as the square of the step. An event that is not linear in the state
+        (a brake or failure watching a Hunt–Crossley or Brach force) is a smooth function, not
+        a polynomial, along the step: its values are lowered by the fit's error bound (twice its
+        last four coefficients, as the SciPy backend's ``tail_bound``)."""
         disc, p, off, sc, armed, depth = args
         h = jnp.where(t1 > t0, t1 - t0, 1.0)
         interp = self.solver.interpolation_cls(t0=t0, t1=t0 + h, **dense)
         ys = jax.vmap(interp.evaluate)(t0 + jnp.asarray(_THETA) * h)
         g = jax.vmap(lambda y: self.model.event_values(t0, y, disc, p, jnp))(ys) / sc + off
-        low = jnp.min(jnp.asarray(_CHEB_DIP @ _CHEB_FIT) @ g, axis=0)
+        coef = jnp.asarray(_CHEB_FIT) @ g                       # (10, events)
+        low = dip_floor(coef, jnp)
+        nonlinear = ~np.asarray(self.model.event_linear, bool)
+        if nonlinear.any():
+            low = low - jnp.where(nonlinear, 2.0 * jnp.sum(jnp.abs(coef[-4:]), axis=0), 0.0)
         g_end = self.model.event_values(t1, y1, disc, p, jnp) / sc + off
         return jnp.any((g_end > 0) & (low < -depth)) & armed & (t1 > t0)
 
