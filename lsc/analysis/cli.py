@@ -314,6 +314,24 @@ def _sensitivity_files(args) -> dict[str, Path]:
 COMPARE_FILES = ("comparison.csv", "comparison.json", "comparison.png")
 
 
+def _add_test_arguments(p, scene_help: str) -> None:
+    """Declare SCENE, DATA (a crash test's channels), ``--cfc`` and ``--time-zero`` (read back
+    by :func:`_read_test`) on the subcommand parser ``p``."""
+    p.add_argument("scene", metavar="SCENE", help=scene_help)
+    p.add_argument("data", metavar="DATA", help="the test's channels (table or ISO-MME data set)")
+    p.add_argument("--cfc", type=float, default=None, metavar="C",
+                   help="filter every channel with the SAE J211 CFC filter of this class "
+                        "(60, 180, 600, 1000; default: as recorded)")
+    p.add_argument("--time-zero", type=float, default=0.0, metavar="T",
+                   help="the file time [s] of first contact (default 0)")
+
+
+def _read_test(args):
+    """The test's channels named by :func:`_add_test_arguments`' arguments."""
+    from .channels import read_channels
+    return read_channels(args.data, time_zero=args.time_zero, cfc=args.cfc)
+
+
 def add_compare(sub) -> None:
     """Declare ``lsc compare``."""
     from ..scene import METHODS
@@ -324,14 +342,8 @@ def add_compare(sub) -> None:
                        "folder, .zip or .mme) and compare them: peak acceleration, delta-V and "
                        "pulse duration per vehicle, measured and simulated, and the ISO/TS 18571 "
                        "corridor, phase, magnitude, slope and total scores of each channel.")
-    p.add_argument("scene", metavar="SCENE", help="a scene TOML file or a packaged scene name")
-    p.add_argument("data", metavar="DATA", help="the test's channels (table or ISO-MME data set)")
+    _add_test_arguments(p, "a scene TOML file or a packaged scene name")
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
-    p.add_argument("--cfc", type=float, default=None, metavar="C",
-                   help="filter every channel with the SAE J211 CFC filter of this class "
-                        "(60, 180, 600, 1000; default: as recorded)")
-    p.add_argument("--time-zero", type=float, default=0.0, metavar="T",
-                   help="the file time [s] of first contact (default 0)")
     p.add_argument("--out", metavar="DIR", help="write comparison.csv, comparison.json and "
                                                 "comparison.png (the overlay) here")
     p.add_argument("--no-plots", action="store_true", help="with --out: no comparison.png")
@@ -343,14 +355,12 @@ def cmd_compare(args) -> int:
     """Run ``lsc compare``: print the comparison (and write CSV, JSON and the overlay figure)."""
     from ..api import solve
     from ..cli import resolve_scene
-    from .channels import read_channels
     from .compare import compare
     scene = resolve_scene(args.scene)
     out = Path(args.out) if args.out else None
     files = [out / f for f in COMPARE_FILES] if out else []
     refuse_existing(files, args.overwrite)
-    channels = read_channels(args.data, time_zero=args.time_zero, cfc=args.cfc)
-    comparison = compare(solve(scene, method=args.method), channels)
+    comparison = compare(solve(scene, method=args.method), _read_test(args))
     print(comparison.summary())
     if out:
         writers = {out / "comparison.csv": comparison.to_csv,
@@ -401,9 +411,8 @@ def add_fit(sub) -> None:
                        "speed, a mass) to the test's acceleration and force channels by least "
                        "squares; print the fitted values with standard errors, their correlation "
                        "and the ISO/TS 18571 rating of the fit.")
-    p.add_argument("scene", metavar="SCENE", help="a scene TOML file or a packaged scene name "
-                                                  "(its values are the starting values)")
-    p.add_argument("data", metavar="DATA", help="the test's channels (table or ISO-MME data set)")
+    _add_test_arguments(p, "a scene TOML file or a packaged scene name (its values are the "
+                           "starting values)")
     p.add_argument("--param", action="append", required=True, metavar="PATH",
                    help="a fitted parameter, e.g. contacts.0.loading.stiffness (repeatable)")
     p.add_argument("--initial", action="append", default=[], metavar="PATH=V",
@@ -411,10 +420,6 @@ def add_fit(sub) -> None:
     p.add_argument("--bounds", action="append", default=[], metavar="PATH=LO:HI",
                    help="bounds of a parameter in the scene's units (repeatable)")
     p.add_argument("--method", choices=METHODS, default=None, help="backend (default: the scene's)")
-    p.add_argument("--cfc", type=float, default=None, metavar="C",
-                   help="filter every channel with the SAE J211 CFC filter of this class")
-    p.add_argument("--time-zero", type=float, default=0.0, metavar="T",
-                   help="the file time [s] of first contact (default 0)")
     p.add_argument("--errors", choices=("autocorrelated", "independent"), default="autocorrelated",
                    help="standard errors allowing for residuals correlated in time (default) or "
                         "assuming independent ones")
@@ -428,7 +433,6 @@ def add_fit(sub) -> None:
 def cmd_fit(args) -> int:
     """Run ``lsc fit``: print the fit (and write the fitted scene, JSON and the overlay)."""
     from ..cli import resolve_scene
-    from .channels import read_channels
     from .fit import fit
     scene = resolve_scene(args.scene)
     initial = dict(_path_value(t) for t in args.initial)
@@ -436,8 +440,7 @@ def cmd_fit(args) -> int:
     out = Path(args.out) if args.out else None
     files = [out / f for f in FIT_FILES] if out else []
     refuse_existing(files, args.overwrite)
-    channels = read_channels(args.data, time_zero=args.time_zero, cfc=args.cfc)
-    result = fit(scene, channels, args.param, initial=initial or None, bounds=bounds or None,
+    result = fit(scene, _read_test(args), args.param, initial=initial or None, bounds=bounds or None,
                  method=args.method, errors=args.errors)
     print(result.summary())
     if out:
