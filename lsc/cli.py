@@ -297,12 +297,14 @@ def _cmd_sweep(args) -> int:
     refuse_existing(files, args.overwrite)
     require_parquet(args.parquet)
     s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
-    writers = {out / "sweep.csv": s.to_csv}
+    # (each writer fills the temporary file write_files made: that one checked the targets)
+    writers = {out / "sweep.csv": lambda file: s.to_csv(file, overwrite=True)}
     if args.parquet:
         writers[out / "sweep.parquet"] = parquet_writer(s)
     if not args.no_plots:
         from .plots import sweep_metric
-        writers[out / "sweep.png"] = lambda file: sweep_metric(s, args.metric, args.index, file)
+        writers[out / "sweep.png"] = lambda file: sweep_metric(s, args.metric, args.index, file,
+                                                                overwrite=True)
     written = write_files(writers, overwrite=args.overwrite, replaces=files)
     n, bad = s.stats["members"], s.stats["failed"]
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"

@@ -23,7 +23,7 @@ import secrets
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
-__all__ = ["OutputExistsError", "OutputError", "refuse_existing", "write_files"]
+__all__ = ["OutputExistsError", "OutputError", "refuse_existing", "write_files", "write_file"]
 
 Writer = Callable[[Path], object]
 
@@ -152,3 +152,10 @@ def _remove(path: Path) -> None:
         os.unlink(path)
     except FileNotFoundError:
         pass
+
+
+def write_file(path, write: Writer, *, overwrite: bool = False) -> Path:
+    """Write one file with ``write(tmp)`` (:func:`write_files`): whole or not at all, and never
+    over an existing file unless ``overwrite``; returns the path. What the Python API's
+    ``to_csv``, ``to_json``, ``file=`` arguments use."""
+    return write_files({Path(path): write}, overwrite=overwrite)[0]

@@ -328,7 +328,8 @@ def _short(label: str) -> str:
     return label.rsplit(" [", 1)[0]
 
 
-def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None):
+def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None, *,
+                 overwrite: bool = False):
     """One metric of a :class:`~lsc.sweep.SweepResult` against the first swept parameter (one
     line per value of the others, for a grid); the axes are labelled with readable names and
     units (:func:`param_label`, :func:`metric_label`). ``index`` picks the vehicle or contact of a
@@ -368,15 +369,16 @@ def sweep_metric(sweep, metric: str = "delta_v", index=None, file=None, ax=None)
         _legend_below(ax)
     if file is None:
         return fig
-    fig.savefig(file, dpi=150)
-    return Path(file)
+    from .outputs import write_file
+    return write_file(file, lambda f: fig.savefig(f, dpi=150), overwrite=overwrite)
 
 
 def _unit_of(label: str) -> str:
     return label.rsplit(" [", 1)[1][:-1] if label.endswith("]") and " [" in label else ""
 
 
-def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, file=None):
+def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, file=None,
+            overwrite: bool = False):
     """A tornado chart of one metric of a :class:`~lsc.analysis.sensitivity.Sensitivity`: one
     horizontal bar per parameter, the largest effect on top.
 
@@ -456,5 +458,5 @@ def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, f
     ax.grid(True, axis="x", alpha=0.3)
     if file is None:
         return fig
-    fig.savefig(file, dpi=150)
-    return Path(file)
+    from .outputs import write_file
+    return write_file(file, lambda f: fig.savefig(f, dpi=150), overwrite=overwrite)

@@ -20,6 +20,8 @@ import numbers
 import time
 from dataclasses import dataclass, field
 
+from pathlib import Path
+
 import numpy as np
 
 from .errors import SceneError, SimulationError
@@ -136,19 +138,25 @@ class SweepResult:
         from .html import sweep_html
         return sweep_html(self)
 
-    def to_csv(self, path, metrics=None) -> None:
-        """Write :meth:`columns` as a CSV file with a header row (shortest round-trip decimals)."""
+    def to_csv(self, path, metrics=None, *, overwrite: bool = False) -> Path:
+        """Write :meth:`columns` as a CSV file with a header row (shortest round-trip decimals),
+        whole or not at all; an existing file is refused (:class:`lsc.outputs.OutputExistsError`)
+        unless ``overwrite``."""
         import csv
+
+        from .outputs import write_file
 
         cols = self.columns(metrics)
         keys = list(cols)
         status = cols.pop("status")
         table = np.column_stack([np.asarray(c, float) for c in cols.values()]).tolist()
         fmt = ",".join(["%r"] * len(cols)) + ",%s\n"
-        quote = csv.QUOTE_MINIMAL
-        with open(path, "w", newline="") as fh:
-            csv.writer(fh, quoting=quote).writerow(keys)
-            fh.writelines(fmt % (*row, _csv_text(st)) for row, st in zip(table, status))
+
+        def write(file):
+            with open(file, "w", newline="") as fh:
+                csv.writer(fh, quoting=csv.QUOTE_MINIMAL).writerow(keys)
+                fh.writelines(fmt % (*row, _csv_text(st)) for row, st in zip(table, status))
+        return write_file(path, write, overwrite=overwrite)
 
 
 def _csv_text(text: str) -> str:

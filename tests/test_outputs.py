@@ -179,3 +179,50 @@ def test_save_all_writes_all_three_figures_or_none(result, tmp_path, monkeypatch
         plots.save_all(result, tmp_path / "figs")
     assert e.value.filename == str(tmp_path / "figs" / "ifd.png")
     assert _listing(tmp_path) == []
+
+
+def test_python_writers_refuse_an_existing_file_unless_overwrite(tmp_path):
+    """The Python API's file writers (SweepResult.to_csv, plots.sweep_metric/tornado(file=),
+    Comparison.to_csv/to_json, FitResult.to_json/to_toml) used to write over an existing file
+    without a word: now they refuse it, leaving it untouched, unless ``overwrite=True``."""
+    import lsc
+    from lsc import data, plots
+    from lsc.analysis import compare, read_channels
+    from lsc.outputs import OutputExistsError
+
+    s = lsc.sweep(data.load("default"), {"vehicles.0.speed": [4.0, 6.0]})
+    test = read_channels(data.path("default").parent / "synthetic_test.csv")
+    comparison = compare(lsc.solve(data.load("default")), test)
+    writers = {
+        "sweep.csv": lambda p, **kw: s.to_csv(p, **kw),
+        "sweep.png": lambda p, **kw: plots.sweep_metric(s, file=p, **kw),
+        "comparison.csv": lambda p, **kw: comparison.to_csv(p, **kw),
+        "comparison.json": lambda p, **kw: comparison.to_json(p, **kw),
+    }
+    for name, write in writers.items():
+        path = tmp_path / name
+        path.write_bytes(b"earlier")
+        with pytest.raises(OutputExistsError):
+            write(path)
+        assert path.read_bytes() == b"earlier", name
+        assert write(path, overwrite=True) == path and path.read_bytes() != b"earlier", name
+
+
+def test_fit_writers_refuse_an_existing_file_unless_overwrite(tmp_path):
+    """FitResult.to_json and to_toml (the fitted scene) refuse an existing file too."""
+    import lsc
+    from lsc import data
+    from lsc.analysis import fit, read_channels
+    from lsc.outputs import OutputExistsError
+
+    test = read_channels(data.path("default").parent / "synthetic_test.csv")
+    result = fit(data.load("default"), test, ["contacts.0.unloading.restitution"])
+    for name, write in {"fit.json": result.to_json, "fitted.toml": result.to_toml}.items():
+        path = tmp_path / name
+        path.write_bytes(b"earlier")
+        with pytest.raises(OutputExistsError):
+            write(path)
+        assert path.read_bytes() == b"earlier"
+        write(path, overwrite=True)
+        assert path.read_bytes() != b"earlier"
+    assert lsc.Scene.load(tmp_path / "fitted.toml").name == result.scene.name

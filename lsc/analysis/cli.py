@@ -188,7 +188,8 @@ def cmd_mc(args) -> int:
                      progress=False if args.no_progress else None, percentiles=args.percentiles)
     print(mc.summary())
     if out:
-        writers = {out / "mc.csv": lambda file: mc.sweep.to_csv(file, metrics=MC_METRICS)}
+        writers = {out / "mc.csv": lambda file: mc.sweep.to_csv(file, metrics=MC_METRICS,
+                                                                   overwrite=True)}
         if args.parquet:
             writers[out / "mc.parquet"] = parquet_writer(mc.sweep)
         if not args.no_plots:
@@ -292,7 +293,8 @@ def cmd_sensitivity(args) -> int:
     writers = {}
     if args.plot:
         from ..plots import tornado
-        writers[files["plot"]] = lambda file: tornado(s, metric, swing=args.swing, file=file)
+        writers[files["plot"]] = lambda file: tornado(s, metric, swing=args.swing, file=file,
+                                                     overwrite=True)
     if args.json:
         writers[files["json"]] = json_writer(s.to_dict())
     write_files(writers, overwrite=args.overwrite)
@@ -363,8 +365,9 @@ def cmd_compare(args) -> int:
     comparison = compare(solve(scene, method=args.method), _read_test(args))
     print(comparison.summary())
     if out:
-        writers = {out / "comparison.csv": comparison.to_csv,
-                   out / "comparison.json": comparison.to_json}
+        # (each writer fills the temporary file write_files made: that one checked the targets)
+        writers = {out / "comparison.csv": lambda f: comparison.to_csv(f, overwrite=True),
+                   out / "comparison.json": lambda f: comparison.to_json(f, overwrite=True)}
         if not args.no_plots:
             writers[out / "comparison.png"] = lambda file: comparison.figure().savefig(file, dpi=120)
         written = write_files(writers, overwrite=args.overwrite, replaces=files)
@@ -444,7 +447,8 @@ def cmd_fit(args) -> int:
                  method=args.method, errors=args.errors)
     print(result.summary())
     if out:
-        writers = {out / "fitted.toml": result.to_toml, out / "fit.json": result.to_json}
+        writers = {out / "fitted.toml": lambda f: result.to_toml(f, overwrite=True),
+                   out / "fit.json": lambda f: result.to_json(f, overwrite=True)}
         if not args.no_plots:
             writers[out / "fit.png"] = \
                 lambda file: result.comparison().figure().savefig(file, dpi=120)

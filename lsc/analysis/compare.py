@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
+from ..outputs import write_file
 from .iso18571 import ISO18571Rating, iso18571, resample
 
 __all__ = ["Comparison", "VehicleComparison", "compare", "METRICS"]
@@ -93,20 +94,23 @@ class Comparison:
         return {"unit_system": self.unit_system, "units": dict(self.units), "metrics": self.rows(),
                 "iso18571": {k: r.as_dict() for k, r in self.iso18571.items()}}
 
-    def to_json(self, path) -> Path:
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
-        return path
+    def to_json(self, path, *, overwrite: bool = False) -> Path:
+        """:meth:`to_dict` as a JSON file (an existing one refused unless ``overwrite``)."""
+        text = json.dumps(self.to_dict(), indent=2) + "\n"
+        return write_file(path, lambda f: Path(f).write_text(text, encoding="utf-8"),
+                          overwrite=overwrite)
 
-    def to_csv(self, path) -> Path:
-        """The metric table, then one row per rated channel (metric ``iso18571_<score>``)."""
-        path = Path(path)
+    def to_csv(self, path, *, overwrite: bool = False) -> Path:
+        """The metric table, then one row per rated channel (metric ``iso18571_<score>``); an
+        existing file is refused unless ``overwrite``."""
         rows = self.rows() + [{"vehicle": ch, "metric": f"iso18571_{k}", "unit": "s" if k == "shift" else "",
                                "measured": "", "simulated": v, "difference": ""}
                               for ch, r in self.iso18571.items() for k, v in r.as_dict().items()]
         cols = ("vehicle", "metric", "unit", "measured", "simulated", "difference")
         lines = [",".join(cols)] + [",".join(_cell(r[c]) for c in cols) for r in rows]
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        text = "\n".join(lines) + "\n"
+        return write_file(path, lambda f: Path(f).write_text(text, encoding="utf-8"),
+                          overwrite=overwrite)
         return path
 
     def figure(self):

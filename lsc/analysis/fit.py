@@ -44,6 +44,7 @@ import numpy as np
 
 from ..api import solve
 from ..errors import SceneError, SimulationError
+from ..outputs import write_file
 from ..scene import Scene
 from ._common import path_kind, read_path
 from .compare import _first_contact, _rate
@@ -131,14 +132,16 @@ class FitResult:
                 "weights": dict(self.weights),
                 "iso18571": {k: r.as_dict() for k, r in self.iso18571.items()}}
 
-    def to_json(self, path) -> Path:
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
-        return path
+    def to_json(self, path, *, overwrite: bool = False) -> Path:
+        """:meth:`to_dict` as a JSON file (an existing one refused unless ``overwrite``)."""
+        text = json.dumps(self.to_dict(), indent=2) + "\n"
+        return write_file(path, lambda f: Path(f).write_text(text, encoding="utf-8"),
+                          overwrite=overwrite)
 
-    def to_toml(self, path=None) -> str:
-        """The fitted scene as TOML text (written to ``path`` too, if given); see :func:`scene_toml`."""
-        return scene_toml(self.scene, path)
+    def to_toml(self, path=None, *, overwrite: bool = False) -> str:
+        """The fitted scene as TOML text (written to ``path`` too, if given; an existing file is
+        refused unless ``overwrite``); see :func:`scene_toml`."""
+        return scene_toml(self.scene, path, overwrite=overwrite)
 
     def comparison(self, **kwargs):
         """:func:`~lsc.analysis.compare` of the fitted crash with the channels (its ``figure()``
@@ -487,7 +490,7 @@ def _unit(scene: Scene, path: str) -> str:
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
-def scene_toml(scene, path=None) -> str:
+def scene_toml(scene, path=None, *, overwrite: bool = False) -> str:
     """A scene as TOML text that :meth:`lsc.Scene.load` reads back to the same scene (written to
     ``path`` too, if given). Relative CSV paths are made absolute (the scene's ``base_dir``), so the
     file can be written anywhere."""
@@ -502,7 +505,7 @@ def scene_toml(scene, path=None) -> str:
                 lines += ["", f"[[{_key(k)}]]"] + [f"{_key(a)} = {_value(b)}" for a, b in item.items()]
     text = "\n".join(lines) + "\n"
     if path is not None:
-        Path(path).write_text(text, encoding="utf-8")
+        write_file(path, lambda f: Path(f).write_text(text, encoding="utf-8"), overwrite=overwrite)
     return text
 
 
