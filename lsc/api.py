@@ -35,18 +35,21 @@ def solve(scene, method: str | None = None, **options):
     Result
         Series, events and metrics in the scene's unit system.
     """
-    sc = Scene.load(scene)
-    backend, opts = resolve(sc, method, options)
-    return solvers.run(HybridModel(sc), backend, opts)
+    model = HybridModel(Scene.load(scene))
+    backend, opts = resolve(model.scene, method, options, model=model)
+    return solvers.run(model, backend, opts)
 
 
-def resolve(sc: Scene, method: str | None, options: dict) -> tuple[str, dict]:
-    """The backend and the validated options a solve of scene ``sc`` uses (see :func:`solve`)."""
+def resolve(sc: Scene, method: str | None, options: dict, *, model=None,
+            members: int | None = None) -> tuple[str, dict]:
+    """The backend and the validated options a solve of scene ``sc`` uses (see :func:`solve`);
+    ``model``: its :class:`~lsc.model.HybridModel` if already built; ``members``: the size of a
+    batch of such scenes (``auto`` then prefers batch paths, :func:`lsc.solvers.pick`)."""
     requested = method or sc.solver.method
     for name in options:  # an unknown name is an error whatever the method (auto included)
         if name not in solvers.ALL_OPTIONS:
             solvers.check_option(name, options[name])
-    backend = solvers.pick(sc, requested)
+    backend = solvers.pick(sc if model is None else model, requested, members)
     accepted = solvers.options_of(backend)
     opts = dict(sc.solver.options)
     if method is not None and method != sc.solver.method:

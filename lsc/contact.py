@@ -91,6 +91,13 @@ class HysteresisLaw:
     #: its force is affine in ``D`` inside a segment (effects watching it have linear events)
     affine_force = True
 
+    def features(self) -> set[str]:
+        """What a scene with this law uses (:meth:`lsc.model.HybridModel.features`)."""
+        linear = self.spec.loading.is_linear and not self.fails
+        out = {"law:ifd", "loading:linear" if linear else "loading:table",
+               f"unloading:{self.unload_kind}"}
+        return out | ({"effect:post-failure"} if self.fails else set())
+
     def __init__(self, spec: Hysteresis, failure=None):
         self.spec = spec
         c = spec.loading
@@ -440,6 +447,10 @@ class DampingLaw:
 
     tracks_work = True
     event_kinds = ("separate", "turn", "close", "recompress")
+
+    def features(self) -> set[str]:
+        """What a scene with this law uses (:meth:`lsc.model.HybridModel.features`)."""
+        return {f"law:{self.name}"}
 
     def __init__(self, spec, mu_pair: float):
         self.spec = spec

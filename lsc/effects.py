@@ -31,6 +31,8 @@ class BrakeEffect:
     """
 
     event_kinds = ("stop", "break_forward", "break_backward")
+    #: What a scene with this effect uses (:meth:`lsc.model.HybridModel.features`).
+    feature = "effect:brake"
 
     def __init__(self, i: int, brake, g: float):
         self.i = i
@@ -101,6 +103,8 @@ class FailureEffect:
     the failure at its failure point, see :class:`~lsc.contact.HysteresisLaw`.)"""
 
     event_kinds = ("failure",)
+    #: What a scene with this effect uses (:meth:`lsc.model.HybridModel.features`).
+    feature = "effect:failure"
 
     def __init__(self, k: int, failure):
         self.k = k

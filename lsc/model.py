@@ -87,6 +87,20 @@ class HybridModel:
         self.v_scale = float(max(np.max(np.abs(v)), np.max(np.abs(np.diff(v))), 1e-300))
         self.event_linear, self.piece_event = self._piece_layout()
 
+    def features(self) -> frozenset[str]:
+        """Everything this scene uses that a backend must solve (its contract,
+        :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
+        ``unloading:restitution``, ``law:kelvin``, ...), each effect's ``feature``
+        (``effect:brake``, ``effect:failure``, ...), and ``gap:open`` / ``gap:overlap`` for
+        initial gaps above / below zero."""
+        out = set()
+        for law in self.laws:
+            out |= law.features()
+        out |= {part.feature for part in self.parts[self.K:]}
+        if np.any(np.asarray(self.params["gap"], float) > 0):
+            out.add("gap:open")
+        return frozenset(out)
+
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):
         """Deformations ``D`` (K, ...) [length] and closing rates ``Ddot`` (K, ...) [velocity]."""

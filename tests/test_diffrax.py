@@ -13,7 +13,7 @@ import lsc  # noqa: E402
 from lsc.model import HybridModel  # noqa: E402
 from lsc.scene import Scene  # noqa: E402
 from lsc.solvers import closed_form, scipy_ode  # noqa: E402
-from lsc.solvers import diffrax_ode as dx  # noqa: E402
+from lsc.solvers.diffrax_ode import _impl as dx  # noqa: E402
 from conftest import two_cars  # noqa: E402
 
 METRICS = ("delta_v", "duration", "peak_force", "max_deformation")

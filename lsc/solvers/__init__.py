@@ -1,118 +1,130 @@
-"""Backends and the ``auto`` dispatch.
+"""The backends, their registry and the ``auto`` dispatch.
 
-Each backend module solves a :class:`~lsc.model.HybridModel`; :func:`solve` picks one by name.
-``auto`` takes the cheapest exact backend that applies: the closed form for two vehicles with
-linear loading and a straight unloading line, the exact piecewise solve for other two-vehicle
-hysteresis scenes (piecewise-linear loading and unloading), the event-driven SciPy solve otherwise.
+Each backend declares itself in a :class:`~lsc.solvers.base.Backend` named ``BACKEND`` in its
+module (see :mod:`lsc.solvers.base`); the registry maps method names to those modules and
+imports them on first use. ``auto`` reads the declarations: the cheapest exact backend that
+declares everything the scene uses (the closed form, then the exact piecewise solve), otherwise
+the event-driven SciPy solve; for a large batch with no exact batch path, the batched
+integrator (diffrax) when it is installed.
 """
 
 from __future__ import annotations
 
-import difflib
-
-import numpy as np
+import importlib
 
 from ..errors import SceneError
+from .base import MAX_SAMPLES, OPTIONS, Backend, Option, check_option
 
-__all__ = ["METHODS", "ALL_OPTIONS", "MAX_SAMPLES", "pick", "run", "options_of", "check_option"]
+__all__ = ["METHODS", "ALL_OPTIONS", "MAX_SAMPLES", "OPTIONS", "Backend", "Option", "backend",
+           "backends", "register", "methods", "pick", "run", "options_of", "check_option",
+           "solvers_for", "LARGE_BATCH"]
 
-#: Accepted values of ``method``.
-METHODS = ("auto", "closed-form", "exact", "scipy", "diffrax", "reference")
-
-# Options each backend accepts (anything else is a SceneError, never silently ignored).
-_OPTIONS = {
-    "closed-form": {"t_end", "n_samples"},
-    "exact": {"t_end", "n_samples", "max_events"},
-    "scipy": {"rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step",
-              "max_steps"},
-    "reference": {"dt", "t_end", "n_samples", "max_steps"},
-    "diffrax": {"rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"},
+# Method name -> the module that declares it (``BACKEND``), in the order ``auto`` and messages
+# list them. Extensions add theirs with :func:`register`.
+_DECLARED: dict[str, object] = {
+    "closed-form": "lsc.solvers.closed_form",
+    "exact": "lsc.solvers.exact",
+    "scipy": "lsc.solvers.scipy_ode",
+    "diffrax": "lsc.solvers.diffrax_ode",
+    "reference": "lsc.solvers.reference",
 }
 
+#: The built-in values of ``method`` (:func:`methods` adds registered ones).
+METHODS = ("auto", *_DECLARED)
+#: Every option that some backend accepts (:data:`lsc.solvers.base.OPTIONS`); any other name is
+#: an error for every method, ``auto`` included.
+ALL_OPTIONS = frozenset(OPTIONS)
+#: ``auto`` sends a batch of at least this many members with no exact batch path to the batched
+#: integrator, when installed (its compilation, about 20 s, is then repaid).
+LARGE_BATCH = 1000
+#: The general integrator ``auto`` falls back on.
+_FALLBACK = "scipy"
+#: The batched integrator ``auto`` uses for large batches.
+_BATCHED = "diffrax"
 
-#: Every option that some backend accepts; any other name is an error for every method, ``auto``
-#: included.
-ALL_OPTIONS = frozenset().union(*_OPTIONS.values())
-#: Most points in a Result's sampled series (``n_samples``): a million rows of every series.
-MAX_SAMPLES = 1_000_000
 
-_POSITIVE = ("atol", "dt", "t_end", "first_step")
-_COUNTS = ("max_events", "max_steps", "n_samples")
+def methods() -> tuple[str, ...]:
+    """Every accepted value of ``method``: ``"auto"`` and each registered backend."""
+    return ("auto", *_DECLARED)
 
 
-def check_option(name: str, value) -> None:
-    """Refuse, with a :class:`SceneError` at ``solver.<name>``, an option no backend knows or a
-    value outside its range: ``rtol`` in (0, 1); ``atol``, ``dt`` [s], ``t_end`` [s],
-    ``first_step`` [s] positive and finite (``atol = None``: the backend's default);
-    ``max_events``, ``max_steps`` whole numbers >= 1; ``n_samples`` in 1..:data:`MAX_SAMPLES`;
-    ``integrator`` a name."""
-    path = f"solver.{name}"
-    if name not in ALL_OPTIONS:
-        close = difflib.get_close_matches(str(name), sorted(ALL_OPTIONS), n=1, cutoff=0.6)
-        hint = f"; did you mean {close[0]!r}?" if close else ";"
-        raise SceneError(path, f"unknown option {name!r}{hint} accepted options: "
-                         f"{', '.join(sorted(ALL_OPTIONS))}")
-    if value is None and name == "atol":
-        return
-    if name == "integrator":
-        if not isinstance(value, str):
-            raise SceneError(path, f"integrator must be a name, got {value!r}")
-        return
-    if name in _COUNTS:
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise SceneError(path, f"{name} must be a positive integer, got {value!r}")
-        if name == "n_samples" and value > MAX_SAMPLES:
-            raise SceneError(path, f"n_samples must be at most {MAX_SAMPLES:,} (points in each "
-                             f"sampled series), got {value:,}")
-        return
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value <= 0:
-        raise SceneError(path, f"{name} must be a positive finite number, got {value!r}")
-    if name == "rtol" and not value < 1:
-        raise SceneError(path, f"rtol must be a positive finite number below 1 (a relative "
-                         f"tolerance, such as 1e-10), got {value!r}")
+def register(declaration: Backend | str, name: str | None = None) -> None:
+    """Add a backend: its :class:`Backend` declaration, or the name of the module that holds it
+    as ``BACKEND`` (then give its method ``name``; the module is imported on first use)."""
+    if isinstance(declaration, Backend):
+        _DECLARED[declaration.name] = declaration
+    else:
+        if not name:
+            raise ValueError("register(module, name): give the method name of the backend")
+        _DECLARED[name] = str(declaration)
+
+
+def unregister(name: str) -> None:
+    """Remove a backend added with :func:`register` (built-in ones stay)."""
+    if name not in METHODS:
+        _DECLARED.pop(name, None)
+
+
+def backend(name: str) -> Backend:
+    """The declaration of backend ``name`` (its module imported now, if not yet)."""
+    if name not in _DECLARED:
+        raise SceneError("solver.method", f"unknown method {name!r}; accepted: "
+                         + ", ".join(repr(m) for m in methods()))
+    decl = _DECLARED[name]
+    if isinstance(decl, str):
+        decl = importlib.import_module(decl).BACKEND
+        _DECLARED[name] = decl
+    return decl
+
+
+def backends() -> list[Backend]:
+    """Every registered backend's declaration, in registry order."""
+    return [backend(n) for n in _DECLARED]
 
 
 def options_of(method: str) -> set[str]:
     """The options backend ``method`` accepts (empty for an unknown one)."""
-    return set(_OPTIONS.get(method, ()))
+    return set(backend(method).options) if method in _DECLARED else set()
 
 
-def pick(scene, method: str) -> str:
-    """The backend ``method`` resolves to for ``scene`` (``auto`` → cheapest exact one)."""
-    if method not in METHODS:
+def _model(scene_or_model):
+    from ..model import HybridModel
+
+    return scene_or_model if isinstance(scene_or_model, HybridModel) else HybridModel(scene_or_model)
+
+
+def solvers_for(scene_or_model) -> list[str]:
+    """The backends (names) whose declarations cover everything ``scene_or_model`` uses."""
+    model = _model(scene_or_model)
+    return [b.name for b in backends() if not b.missing(model)]
+
+
+def pick(scene_or_model, method: str, members: int | None = None) -> str:
+    """The backend ``method`` resolves to for a scene (or model): itself, or for ``auto`` the
+    cheapest available exact backend that declares everything the scene uses, else SciPy. With
+    ``members`` (a batch of that many), ``auto`` prefers exact backends whose batch path solves
+    the scene, and for :data:`LARGE_BATCH` members or more with none, the batched integrator
+    when installed."""
+    if method not in _DECLARED and method != "auto":
         raise SceneError("solver.method", f"unknown method {method!r}; accepted: "
-                         + ", ".join(repr(m) for m in METHODS))
+                         + ", ".join(repr(m) for m in methods()))
     if method != "auto":
         return method
-    from . import closed_form, exact
-    if closed_form.applies(scene):
-        return "closed-form"
-    return "exact" if exact.applies(scene) else "scipy"
+    model = _model(scene_or_model)
+    exact = sorted((b for b in backends() if b.exact and b.available() and not b.missing(model)),
+                   key=lambda b: b.cost)
+    if members is not None:
+        batched = [b for b in exact if not b.missing(model, batch=True)]
+        if batched:
+            return batched[0].name
+        if not exact and members >= LARGE_BATCH:
+            b = backend(_BATCHED)
+            if b.available() and not b.missing(model, batch=True):
+                return b.name
+    return exact[0].name if exact else _FALLBACK
 
 
 def run(model, method: str, options: dict):
-    """Solve ``model`` with backend ``method`` (already resolved) and its ``options``."""
-    if method not in _OPTIONS:
-        raise SceneError("solver.method", f"method {method!r} is not available yet; "
-                         "accepted now: " + ", ".join(repr(m) for m in ("auto", *_OPTIONS)))
-    unknown = set(options) - _OPTIONS[method]
-    if unknown:
-        name = sorted(unknown)[0]
-        raise SceneError(f"solver.{name}", f"option {name!r} does not apply to method "
-                         f"{method!r}; it accepts: {', '.join(sorted(_OPTIONS[method]))}")
-    if method == "closed-form":
-        from .closed_form import solve
-    elif method == "exact":
-        from .exact import solve
-    elif method == "scipy":
-        from .scipy_ode import solve
-    elif method == "diffrax":
-        try:
-            from .diffrax_ode import solve
-        except ModuleNotFoundError as exc:  # the [jax] extra is not installed
-            raise SceneError("solver.method", f"method 'diffrax' needs JAX and diffrax ({exc}); "
-                             "install them with: pip install 'lsc[jax]'") from exc
-    else:
-        from .reference import solve
-    return solve(model, **options)
+    """Solve ``model`` with backend ``method`` (already resolved) and its ``options``: checked
+    against the backend's declaration, then solved."""
+    return backend(method).solve(model, **options)

@@ -14,28 +14,29 @@ import time
 import numpy as np
 
 from ..errors import SceneError
+from ..model import HybridModel
 from ..result import Event, Result
-from ..scene import Hysteresis, Restitution, UnloadingStiffness
+from ..scene import Restitution
+from .base import Backend
 
-__all__ = ["applies", "why_not", "parameters", "metrics", "solve"]
+__all__ = ["BACKEND", "applies", "why_not", "parameters", "metrics", "solve"]
+
+
+#: The closed form's declaration: two vehicles, linear loading from the origin, a straight
+#: unloading line, a gap, a failure force reported; no braking, no post-failure branch.
+BACKEND = Backend(
+    name="closed-form", module=__name__, options=("t_end", "n_samples"), exact=True, cost=0.0,
+    vehicles=(2, 2),
+    solves=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
+                      "unloading:stiffness", "effect:failure", "gap:open"}),
+    batch=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
+                     "unloading:stiffness", "effect:failure", "gap:open"}),
+    summary="closed form of the linear spring with a straight unloading line")
 
 
 def why_not(scene) -> str | None:
     """Why the closed form does not apply to ``scene`` (``None`` if it does)."""
-    if scene.n_vehicles != 2:
-        return "it needs exactly two vehicles"
-    c = scene.contacts[0]
-    if c.failure is not None and c.failure.post_failure is not None:
-        return "it has no post-failure branch"
-    if any(v.brake is not None for v in scene.vehicles):
-        return "it has no braking"
-    if not isinstance(c.law, Hysteresis):
-        return "it needs the IF-D hysteresis contact law"
-    if not c.law.loading.is_linear:
-        return "it needs a linear loading branch (a single stiffness)"
-    if not isinstance(c.law.unloading, (Restitution, UnloadingStiffness)):
-        return "it needs a straight unloading line (restitution or stiffness)"
-    return None
+    return BACKEND.why_not(HybridModel(scene))
 
 
 def applies(scene) -> bool:

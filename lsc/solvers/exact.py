@@ -66,9 +66,10 @@ from ..contact import BIG, MODE_OPEN, STATUS, HysteresisLaw
 from ..curves import Curve
 from ..errors import SceneError
 from ..scene import Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
+from .base import Backend
 from .segments import Step, build_result, run_segments
 
-__all__ = ["applies", "why_not", "solve", "solve_batch", "batch_params", "BATCH_STATUS"]
+__all__ = ["BACKEND", "applies", "why_not", "solve", "solve_batch", "batch_params", "BATCH_STATUS"]
 
 #: Status codes of :func:`solve_batch`: the law's :data:`~lsc.contact.STATUS` and two of its own.
 BATCH_STATUS = {
@@ -550,16 +551,25 @@ def _turning_deformations(g: _Seg, tau: float) -> list:
 
 
 # ============================================================================ applicability
+#: The exact backend's declaration: two vehicles with the IF-D law (any loading and unloading
+#: curve, gaps, braking, failure); its batch path has no braking and no post-failure curve.
+BACKEND = Backend(
+    name="exact", module=__name__, options=("t_end", "n_samples", "max_events"), exact=True,
+    cost=1.0, vehicles=(2, 2),
+    solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
+                   "unloading:stiffness", "unloading:table", "effect:brake", "effect:failure",
+                      "effect:post-failure", "gap:open"}),
+    batch=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
+                   "unloading:stiffness", "unloading:table", "effect:failure", "gap:open"}),
+    batch_options=("max_events",),
+    summary="exact piecewise solution of two vehicles with piecewise-linear IF-D curves")
+
+
 def why_not(scene) -> str | None:
     """Why the exact backend does not apply to ``scene`` (``None`` if it does)."""
-    if scene.n_vehicles != 2:
-        return "it needs exactly two vehicles"
-    c = scene.contacts[0]
-    if not isinstance(c.law, Hysteresis):
-        return "it needs the IF-D hysteresis contact law (piecewise-linear loading and unloading)"
-    if not c.gap >= 0:
-        return "it needs a non-negative gap"
-    return None
+    from ..model import HybridModel
+
+    return BACKEND.why_not(HybridModel(scene))
 
 
 def applies(scene) -> bool:
@@ -607,10 +617,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     ``v_final`` is taken at the last separation. Peaks are exact: with friction the force need
     not be monotone along a segment, so its turning points count as well.
     """
-    reason = why_not(model.scene)
-    if reason:
-        raise SceneError("solver.method", f"the exact backend does not apply: {reason}; "
-                         "use method 'scipy' (or 'auto')")
+    BACKEND.check(model)
     p = model.params
     m1, m2 = (float(m) for m in p["m"])
     gap = float(p["gap"][0])

@@ -37,9 +37,9 @@ import numpy as np
 from ..contact import MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from ..errors import SceneError, SimulationError
 from ..result import Event, Result
-from ..scene import Hysteresis
+from .base import Backend
 
-__all__ = ["why_not", "solve", "MAX_STEPS", "STEPS_PER_CONTACT_TIME"]
+__all__ = ["BACKEND", "why_not", "solve", "MAX_STEPS", "STEPS_PER_CONTACT_TIME"]
 
 #: Most steps one run may take: every step is kept (9 float64 values, about 130 bytes with the
 #: arrays built from them at the end), so this bounds a run's memory to about 2 GiB.
@@ -49,20 +49,20 @@ MAX_STEPS = 2 ** 24
 STEPS_PER_CONTACT_TIME = 100
 
 
+#: The paper's algorithm: two vehicles in contact at the start (no gap), the IF-D law, a
+#: failure force reported; no braking, no post-failure branch.
+BACKEND = Backend(
+    name="reference", module=__name__, options=("dt", "t_end", "n_samples", "max_steps"),
+    vehicles=(2, 2), solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
+                   "unloading:stiffness", "unloading:table", "effect:failure"}),
+    summary="the paper's fixed-step algorithm")
+
+
 def why_not(scene) -> str | None:
     """Why the paper's algorithm cannot run ``scene`` (``None`` if it can)."""
-    if scene.n_vehicles != 2:
-        return "the paper's algorithm simulates exactly two vehicles"
-    c = scene.contacts[0]
-    if not isinstance(c.law, Hysteresis):
-        return "the paper's algorithm uses the IF-D hysteresis contact law only"
-    if c.gap != 0:
-        return "the paper's algorithm starts with the vehicles in contact (gap = 0)"
-    if any(v.brake is not None for v in scene.vehicles):
-        return "the paper's algorithm has no braking"
-    if c.failure is not None and c.failure.post_failure is not None:
-        return "the paper's algorithm has no post-failure branch"
-    return None
+    from ..model import HybridModel
+
+    return BACKEND.why_not(HybridModel(scene))
 
 
 def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = MAX_STEPS,
@@ -70,10 +70,7 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = MAX_STEPS,
     """Run the paper's algorithm with time step ``dt`` [s], at most ``max_steps`` steps (at most
     :data:`MAX_STEPS`, the most whose run fits in memory)."""
     scene = model.scene
-    reason = why_not(scene)
-    if reason:
-        raise SceneError("solver.method", f"method 'reference' cannot run this scene: {reason}; "
-                         "use 'scipy' or 'auto'")
+    BACKEND.check(model)
     dt = float(dt)
     if not (np.isfinite(dt) and dt > 0):
         raise SceneError("solver.dt", f"dt must be a positive time step, got {dt!r}")

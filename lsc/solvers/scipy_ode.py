@@ -38,9 +38,10 @@ from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
 from . import step_roots
+from .base import Backend
 from .segments import Step, build_result, run_segments
 
-__all__ = ["solve", "INTEGRATORS"]
+__all__ = ["BACKEND", "FEATURES", "solve", "INTEGRATORS"]
 
 INTEGRATORS = ("RK45", "DOP853", "LSODA", "Radau", "BDF", "RK23")
 
@@ -377,6 +378,21 @@ def _polish(restep, g, slope, t_old, t_new, tr, yr, iters: int = 3):
             break
         t = t_next
     return best[1], best[2]
+
+
+#: Every built-in feature of the model: SciPy integrates any scene of the hybrid ODE.
+FEATURES = frozenset({
+    "law:ifd", "loading:linear", "loading:table", "unloading:restitution",
+    "unloading:stiffness", "unloading:table", "law:kelvin", "law:hunt-crossley", "law:brach",
+    "effect:brake", "effect:failure", "effect:post-failure", "gap:open"})
+
+#: The SciPy backend's declaration: any number of vehicles, every law and effect.
+BACKEND = Backend(
+    name="scipy", module=__name__,
+    options=("rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step",
+             "max_steps"),
+    vehicles=(2, None), solves=FEATURES,
+    summary="event-driven SciPy solve_ivp (DOP853 by default)")
 
 
 def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, t_end=None,

@@ -76,7 +76,7 @@ import time
 import numpy as np
 
 import jax
-from . import jax_setup  # noqa: E402, F401  (the persistent compilation cache, before any compile)
+from .. import jax_setup  # noqa: E402, F401  (the persistent compilation cache, before any compile)
 
 jax.config.update("jax_enable_x64", True)
 
@@ -86,11 +86,11 @@ import jax.numpy as jnp  # noqa: E402
 import optimistix as optx  # noqa: E402
 from jax import lax  # noqa: E402
 
-from ..contact import STATUS  # noqa: E402
-from ..errors import SceneError, SimulationError  # noqa: E402
-from ..impacts import PUSHED  # noqa: E402
-from ..result import Event  # noqa: E402
-from .segments import Segment, build_result  # noqa: E402
+from ...contact import STATUS  # noqa: E402
+from ...errors import SceneError, SimulationError  # noqa: E402
+from ...impacts import PUSHED  # noqa: E402
+from ...result import Event  # noqa: E402
+from ..segments import Segment, build_result  # noqa: E402
 
 __all__ = ["solve", "solve_batch", "INTEGRATORS", "BATCH_METRICS", "STATUS_CODES", "TRACES"]
 

@@ -1,0 +1,37 @@
+"""diffrax backend: the whole hybrid solve as one compiled JAX function (see
+:mod:`lsc.solvers.diffrax_ode._impl`).
+
+This package's top level holds only the declaration, so reading it imports no JAX; the solver's
+names (``solve``, ``solve_batch``, ``INTEGRATORS``, ...) are loaded on first use (PEP 562).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from ..base import Backend
+from ..scipy_ode import FEATURES
+
+__all__ = ["BACKEND", "solve", "solve_batch", "INTEGRATORS", "BATCH_METRICS", "STATUS_CODES",
+           "TRACES"]
+
+#: The diffrax backend's declaration: any number of vehicles, every law and effect, and a
+#: batch path (one vmapped compiled solve) for all of them.
+BACKEND = Backend(
+    name="diffrax", module=__name__ + "._impl",
+    options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"),
+    vehicles=(2, None), solves=FEATURES, batch=FEATURES,
+    batch_options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps"),
+    requires=("jax", "diffrax"), install="pip install 'lsc[jax]'",
+    summary="event-driven diffrax solve, compiled with JAX (batched with vmap)")
+
+
+def __getattr__(name: str):
+    """The solver's names, from :mod:`._impl` (which imports JAX) on first use."""
+    if name.startswith("__"):
+        raise AttributeError(name)
+    impl = BACKEND.implementation()
+    try:
+        return getattr(impl, name)
+    except AttributeError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
