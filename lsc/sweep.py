@@ -27,8 +27,8 @@ import numpy as np
 from .errors import SceneError, SimulationError
 from .model import HybridModel
 from .result import METRICS
-from .scene import Restitution, Scene, UnloadingStiffness
-from . import solvers
+from .scene import Scene, UnloadingStiffness
+from . import parameters, solvers
 
 __all__ = ["sweep", "SweepResult", "CHUNK", "MAX_MEMBERS", "check_keywords"]
 
@@ -237,89 +237,9 @@ def _to_numbers(scene: Scene, path: str, arr: np.ndarray) -> np.ndarray:
             continue
         if v not in cache:
             probe = scene.with_values({path: v})
-            cache[v] = _read_back(probe, path)
+            cache[v] = parameters.read_back(probe, path)
         out[j] = cache[v]
     return out
-
-
-def _read_back(scene: Scene, path: str) -> float:
-    """The number a fast path sets, as the loader stored it (used for unit strings)."""
-    parts = path.replace("[", ".").replace("]", "").split(".")
-    if parts[0] == "vehicles" and len(parts) == 3:
-        veh = scene.vehicles[int(parts[1])]
-        return {"speed": veh.speed, "mass": veh.mass, "weight": veh.mass * scene.g}[parts[2]]
-    if parts[0] == "contacts" and len(parts) >= 3:
-        c = scene.contacts[int(parts[1])]
-        if parts[2] == "gap":
-            return c.gap
-        if parts[2:] == ["unloading", "restitution"]:
-            return c.law.unloading.e
-        if parts[2:] == ["unloading", "stiffness"]:
-            return c.law.unloading.stiffness
-        if parts[2:] == ["loading", "stiffness"]:
-            return c.law.loading.stiffness
-        if parts[2:] == ["loading", "scale"]:
-            return float(scene.source["contacts"][int(parts[1])]["loading"].get("scale", 1.0))
-    raise SceneError(path, "values with units are accepted only for speeds, masses, weights, gaps "
-                           "and stiffnesses; give plain numbers in the scene's units")
-
-
-# Paths whose values map straight onto the model's numeric parameters (no re-loading needed).
-def _fast_setter(scene: Scene, path: str):
-    """A function ``(params_batch, values)`` that writes a swept path into the batched model
-    parameters, or ``None`` if the path needs a full re-load per member."""
-    parts = path.replace("[", ".").replace("]", "").split(".")
-    try:
-        if parts[0] == "vehicles" and len(parts) == 3:
-            i = int(parts[1])
-            if not 0 <= i < scene.n_vehicles:
-                return None
-            if parts[2] == "speed":
-                return lambda p, v: p["v0"].__setitem__((slice(None), i), v)
-            if parts[2] == "mass":
-                return lambda p, v: p["m"].__setitem__((slice(None), i), v)
-            if parts[2] == "weight":
-                return lambda p, v: p["m"].__setitem__((slice(None), i), v / scene.g)
-        if parts[0] == "contacts" and len(parts) >= 3:
-            k = int(parts[1])
-            if not 0 <= k < len(scene.contacts):
-                return None
-            law = scene.contacts[k].law
-            tail = parts[2:]
-            fail = scene.contacts[k].failure
-            if tail[0] == "loading" and fail is not None and fail.post_failure is not None:
-                return None  # the failure point moves with the loading curve: re-load
-            if tail == ["gap"]:
-                return lambda p, v: p["gap"].__setitem__((slice(None), k), v)
-            if tail == ["unloading", "restitution"] and isinstance(law.unloading, Restitution):
-                return lambda p, v: p["contacts"][k].__setitem__("e", v)
-            if tail == ["unloading", "stiffness"] and isinstance(law.unloading, UnloadingStiffness):
-                return lambda p, v: p["contacts"][k].__setitem__("su", v)
-            if tail == ["loading", "stiffness"] and law.loading.is_linear:
-                return lambda p, v: p["contacts"][k]["ls"].__setitem__((slice(None), 0), v)
-            if tail == ["loading", "scale"] and hasattr(law, "loading"):
-                base = float(scene.source["contacts"][k]["loading"].get("scale", 1.0))
-
-                def scale(p, v, k=k, base=base):
-                    c = p["contacts"][k]
-                    f = (np.asarray(v, float) / base)[:, None]
-                    for key in ("lf", "ls", "le"):
-                        c[key] = c[key] * f
-                return scale
-    except (ValueError, AttributeError, KeyError, TypeError):
-        return None
-    return None
-
-
-def _batched(params, n: int):
-    """The model's parameter pytree (dicts and lists of arrays) with a leading member axis of
-    length ``n`` on every array."""
-    if isinstance(params, dict):
-        return {k: _batched(v, n) for k, v in params.items()}
-    if isinstance(params, (list, tuple)):
-        return [_batched(v, n) for v in params]
-    x = np.asarray(params, float)
-    return np.repeat(x[None, ...], n, axis=0)
 
 
 def _validate(scene: Scene, values: dict, n: int) -> np.ndarray:
@@ -383,7 +303,7 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
             return False
 
     try:
-        anchor = int(np.argmin(np.abs(u - _read_back(scene, path))))
+        anchor = int(np.argmin(np.abs(u - parameters.read_back(scene, path))))
     except (SceneError, AttributeError, IndexError, ValueError, KeyError):
         anchor = u.size // 2
     if not accepted(anchor):
@@ -468,7 +388,7 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     backend, opts = resolve(base, method, options)
     status = _validate(base, values, n)
     metrics = _empty_metrics(base, n)
-    setters = {p: _fast_setter(base, p) for p in values}
+    setters = {p: parameters.setter(base, p) for p in values}
     fast = all(s is not None for s in setters.values())
     ok = status == "ok"
     if backend == "closed-form" and fast:
@@ -502,7 +422,7 @@ def _closed_form_batch(base, values, setters, ok, metrics):
     from .solvers import closed_form
 
     n = ok.size
-    p = _batched(HybridModel(base).params, n)
+    p = parameters.batched(HybridModel(base).params, n)
     for path, vals in values.items():
         setters[path](p, vals)
     c = p["contacts"][0]
@@ -526,7 +446,7 @@ def _exact_batch(base, values, setters, ok, metrics, status):
 
     n = ok.size
     model = HybridModel(base)
-    p = _batched(model.params, n)
+    p = parameters.batched(model.params, n)
     for path, vals in values.items():
         setters[path](p, vals)
     law, c = model.laws[0], p["contacts"][0]
@@ -670,7 +590,7 @@ def _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, c
     if run.size == 0:
         return
     model = HybridModel(base)
-    p = _batched(model.params, ok.size)
+    p = parameters.batched(model.params, ok.size)
     for path, vals in values.items():
         setters[path](p, vals)
     leaves, tree = jax.tree_util.tree_flatten(model.params)
