@@ -82,6 +82,8 @@ OPTIONS = _options(
     Option("max_events", "count", "most discrete events in one solve"),
     Option("max_steps", "count", "most integrator steps (in one segment, or in all)"),
     Option("n_samples", "count", "points in each sampled series", most=MAX_SAMPLES),
+    Option("chunk", "count", "batch paths: most members in one batch call"),
+    Option("workers", "count", "batch paths: batch calls run at once (threads)"),
 )
 
 

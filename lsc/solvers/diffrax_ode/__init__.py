@@ -21,7 +21,8 @@ BACKEND = Backend(
     name="diffrax", module=__name__ + "._impl",
     options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"),
     vehicles=(2, None), solves=FEATURES, batch=FEATURES,
-    batch_options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps"),
+    batch_options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "chunk",
+                   "workers"),
     requires=("jax", "diffrax"), install="pip install 'lsc[jax]'",
     summary="event-driven diffrax solve, compiled with JAX (batched with vmap)")
 
