@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import SceneError
 
-__all__ = ["Option", "OPTIONS", "MAX_SAMPLES", "Backend", "check_option"]
+__all__ = ["Option", "OPTIONS", "CONTROLS", "MAX_SAMPLES", "Backend", "check_option"]
 
 #: Most points in a Result's sampled series (``n_samples``): a million rows of every series.
 MAX_SAMPLES = 1_000_000
@@ -82,8 +82,12 @@ OPTIONS = _options(
     Option("max_events", "count", "most discrete events in one solve"),
     Option("max_steps", "count", "most integrator steps (in one segment, or in all)"),
     Option("n_samples", "count", "points in each sampled series", most=MAX_SAMPLES),
-    Option("chunk", "count", "batch paths: most members in one batch call"),
-    Option("workers", "count", "batch paths: batch calls run at once (threads)"),
+)
+
+#: How a batch path runs (``lsc.sweep`` keywords, not solver options of a scene).
+CONTROLS = _options(
+    Option("chunk", "count", "most members in one batch call"),
+    Option("workers", "count", "batch calls run at once (threads)"),
 )
 
 
@@ -165,7 +169,8 @@ class Backend:
     summary: str = ""
 
     def __post_init__(self):
-        unknown = set(self.options) - set(OPTIONS)
+        unknown = (set(self.options) - set(OPTIONS)) | (set(self.batch_options) - set(OPTIONS)
+                                                        - set(CONTROLS))
         if unknown:  # pragma: no cover - a declaration error, caught by the registry tests
             raise ValueError(f"backend {self.name!r} declares unknown options {sorted(unknown)}")
 
@@ -214,11 +219,12 @@ class Backend:
         accepted = self.batch_options if batch else self.options
         for name, value in options.items():
             if name not in accepted:
-                check_option(name, value)  # an unknown name gets the closest known one
+                if name not in CONTROLS:
+                    check_option(name, value)  # an unknown name gets the closest known one
                 raise SceneError(f"solver.{name}", f"option {name!r} does not apply to method "
                                                    f"{self.name!r}; it accepts: "
                                                    f"{', '.join(sorted(accepted))}")
-            OPTIONS[name].check(value)
+            (CONTROLS.get(name) or OPTIONS[name]).check(value)
 
     # ------------------------------------------------------------------ doing it
     def implementation(self):
