@@ -78,7 +78,8 @@ class GlobalSensitivity(SummaryHTML):
         """Write :attr:`table` as CSV (shortest round-trip decimals), whole or not at all; an
         existing file is refused (:class:`lsc.outputs.OutputExistsError`) unless ``overwrite``."""
         from ..outputs import write_file
-        return write_file(path, lambda f: self.table.to_csv(f, index=False, float_format="%r"),
+        return write_file(path, lambda f: self.table.to_csv(
+            f, index=False, float_format=lambda x: repr(float(x))),
                           overwrite=overwrite)
 
 
