@@ -230,8 +230,9 @@ def _indices(problem, sw, names, conf_level, num_resamples, seed):
         if np.ptp(y) == 0:
             raise SceneError("metrics", f"{label} is the same for every member (no variance to "
                                         "apportion): leave it out")
+        # (a Generator, not the seed: SALib draws from NumPy's global state for a seed of 0)
         res = sobol.analyze(problem, y, calc_second_order=False, num_resamples=num_resamples,
-                            conf_level=conf_level, seed=seed)
+                            conf_level=conf_level, seed=np.random.default_rng(seed))
         for j, path in enumerate(problem["names"]):
             rows.append((path, label, res["S1"][j], res["S1_conf"][j], res["ST"][j],
                          res["ST_conf"][j]))
