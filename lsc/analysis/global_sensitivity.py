@@ -188,6 +188,7 @@ def _design(problem: dict, n: int, seed) -> np.ndarray:
     warn_sobol_count(n, "n")
     with warnings.catch_warnings():  # (the count was dealt with above)
         warnings.filterwarnings("ignore", message=".*Sobol' sequence")
+        warnings.filterwarnings("ignore", message=".*balance properties of Sobol")
         return sobol_sample.sample(problem, n, calc_second_order=False, scramble=True, seed=seed)
 
 
