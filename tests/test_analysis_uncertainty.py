@@ -365,5 +365,7 @@ def test_lsc_mc_sampling_option(tmp_path, capsys):
                  '"vehicles.1.weight" = { uniform = [3000, 4000] }\n'
                  'correlation = [["vehicles.0.speed", "vehicles.1.weight", 0.5]]\n')
     assert lsc.cli.main(["mc", str(f), "--n", "64", "--sampling", "lhs", "--no-progress"]) == 0
-    assert "(seed 0, Latin hypercube)" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "(seed 0, Latin hypercube)" in text
+    assert "rank correlation: vehicles.0.speed ~ vehicles.1.weight 0.5" in text
     assert lsc.cli.main(["mc", str(f), "--n", "64", "--sampling", "grid"]) == 2

@@ -197,6 +197,7 @@ def test_cli_global_writes_the_table_and_the_chart(tmp_path, capsys):
                                                    "derivative sensitivity"),
     (["--samples", "64"], "samples: --samples is an option of --global"),
     (["--out", "d"], "out: --out is an option of --global"),
+    (["--no-plots"], "no-plots: --no-plots is an option of --global"),
 ])
 def test_cli_options_of_the_other_analysis_are_refused(tmp_path, capsys, argv, message):
     f = tmp_path / "s.toml"

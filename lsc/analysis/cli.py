@@ -276,7 +276,7 @@ GLOBAL_FILES = ("sobol.csv", "sobol.png")
 #: ``lsc sensitivity`` options of the derivative analysis (refused with ``--global``).
 _LOCAL_ONLY = ("params", "derivative", "plot", "plot_metric", "swing", "json", "backend")
 #: ``lsc sensitivity`` options of ``--global`` (refused without it).
-_GLOBAL_ONLY = ("samples", "seed", "uncertainty", "out")
+_GLOBAL_ONLY = ("samples", "seed", "uncertainty", "out", "no_plots")
 
 
 def _add_global_options(p) -> None:

@@ -119,7 +119,7 @@ def global_sensitivity(scene, distributions: dict, *, metrics=DEFAULT_METRICS, n
     SimulationError
         When a member cannot be solved (the indices need every member).
     """
-    from ..sweep import sweep
+    from ..sweep import check_members, sweep
     from .uncertainty import _check_count
 
     check_keywords("global_sensitivity", options, ("metrics", "n", "seed", "method",
@@ -134,9 +134,8 @@ def global_sensitivity(scene, distributions: dict, *, metrics=DEFAULT_METRICS, n
                                           f"{num_resamples!r}")
     problem = {"num_vars": len(spec.marginals), "names": list(spec.marginals),
                "bounds": [[0.0, 1.0]] * len(spec.marginals)}
+    check_members(int(n) * (len(spec.marginals) + 2), "n")
     u = _design(problem, int(n), seed)
-    from ..sweep import check_members
-    check_members(u.shape[0], "n")
     values = apply_functions(spec, map_points(spec, u), np.random.default_rng(seed), u.shape[0])
     sw = sweep(spec.scene, values, method=method, progress=progress, **options)
     _require_all_solved(sw)

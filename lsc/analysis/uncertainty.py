@@ -60,7 +60,9 @@ class MonteCarlo(SummaryHTML):
     :class:`~lsc.SweepResult` (every metric per member; failed members are NaN with their reason
     in ``sweep.status``); ``q``: the percentiles [%]; ``percentiles``: metric → array
     ``(len(q),)``, ``(len(q), N)`` or ``(len(q), K)`` over the solved members, in scene units
-    (peak acceleration in g); ``seed``, ``n``, ``sampling`` (the design: :data:`SAMPLINGS`).
+    (peak acceleration in g); ``seed``, ``n``, ``sampling`` (the design: :data:`SAMPLINGS`);
+    ``rank_correlation``: ``(path_a, path_b)`` → the requested Spearman rank correlation of each
+    correlated pair (empty: independent inputs).
     """
 
     scene: Scene
@@ -71,6 +73,7 @@ class MonteCarlo(SummaryHTML):
     seed: object = None
     n: int = 0
     sampling: str = "random"
+    rank_correlation: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> np.ndarray:
@@ -96,7 +99,7 @@ class MonteCarlo(SummaryHTML):
                   "lhs": ", Latin hypercube"}[self.sampling]
         lines = [f"{s.name}: Monte Carlo, {self.n} samples (seed {self.seed}{design}), {n_ok} solved"
                  f" ({self.n - n_ok} failed), method {self.sweep.method}",
-                 "", "sampled: " + ", ".join(self.samples), "",
+                 "", "sampled: " + ", ".join(self.samples), *self._correlation_lines(), "",
                  f"{'metric':<34} {'unit':>6} {head}"]
         for name, (label, per) in METRICS.items():
             p = self.percentiles[name]
@@ -116,6 +119,11 @@ class MonteCarlo(SummaryHTML):
             for r, c in sorted(zip(reasons, counts), key=lambda rc: -rc[1])[:5]:
                 lines.append(f"  {c} x {r}")
         return "\n".join(lines)
+
+    def _correlation_lines(self) -> list[str]:
+        """The requested rank correlations, one line (none when independent)."""
+        pairs = [f"{a} ~ {b} {rho:g}" for (a, b), rho in self.rank_correlation.items()]
+        return ["rank correlation: " + ", ".join(pairs)] if pairs else []
 
     def histogram(self, metric: str = "delta_v", index: int | None = None, *, bins=50, ax=None):
         """A histogram of ``metric`` over the solved members with the percentiles marked; for a
@@ -571,6 +579,15 @@ def _check_correlation(matrix: np.ndarray, paths: list, marginals: dict) -> None
                                      "can have these correlations together") from None
 
 
+def _correlated_pairs(spec: Inputs) -> dict:
+    """``(path_a, path_b)`` → requested rank correlation, for every correlated pair."""
+    if spec.rank_correlation is None:
+        return {}
+    paths, r = list(spec.marginals), spec.rank_correlation
+    return {(paths[i], paths[j]): float(r[i, j]) for i in range(len(paths))
+            for j in range(i + 1, len(paths)) if r[i, j] != 0}
+
+
 def _truncated_normal(rng, mean: float, sd: float, lo: float, hi: float, n: int) -> np.ndarray:
     """``n`` draws of a normal truncated to ``[lo, hi]``: by rejection while at least 5 % of the
     normal lies inside (deterministic for the generator's state), else by the inverse CDF."""
@@ -644,6 +661,7 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
     if not q or any(not 0 <= x <= 100 for x in q):
         raise SceneError("percentiles", f"percentiles lie in [0, 100], got {percentiles!r}")
     samples = sample(base, distributions, n, seed=seed, sampling=sampling)
+    correlation = _correlated_pairs(inputs(base, distributions))
     sw = sweep(base, samples, method=method, progress=progress, **options)
     pct = {}
     ok = sw.ok
@@ -651,4 +669,4 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
         arr = np.asarray(sw.metrics[name])[ok]
         pct[name] = (np.percentile(arr, q, axis=0) if arr.shape[0]
                      else np.full((len(q),) + arr.shape[1:], np.nan))
-    return MonteCarlo(base, samples, sw, q, pct, seed, int(n), sampling)
+    return MonteCarlo(base, samples, sw, q, pct, seed, int(n), sampling, correlation)
