@@ -242,10 +242,12 @@ def test_random_sampling_is_todays_draws_bit_for_bit():
     rng = np.random.default_rng(7)
     expected = {"vehicles.0.speed": rng.uniform(4, 8, 500),
                 "vehicles.1.weight": rng.normal(3500, 100, 500),
-                "contacts.0.unloading.restitution": rng.triangular(0.2, 0.4, 0.7, 500)}
-    for got in (sample(paper_scene(), THREE, 500, seed=7),
-                sample(paper_scene(), THREE, 500, seed=7, sampling="random"),
-                monte_carlo(paper_scene(), THREE, 500, seed=7, sampling="random").samples):
+                "contacts.0.unloading.restitution": rng.triangular(0.2, 0.4, 0.7, 500),
+                "vehicles.0.weight": np.array([3000.0, 3500.0])[rng.integers(0, 2, 500)]}
+    d = {**THREE, "vehicles.0.weight": {"choice": [3000, 3500]}}
+    for got in (sample(paper_scene(), d, 500, seed=7),
+                sample(paper_scene(), d, 500, seed=7, sampling="random"),
+                monte_carlo(paper_scene(), d, 500, seed=7, sampling="random").samples):
         assert list(got) == list(expected)
         for path in expected:
             assert np.array_equal(got[path], expected[path])

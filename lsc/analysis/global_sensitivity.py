@@ -70,7 +70,8 @@ class GlobalSensitivity(SummaryHTML):
         return "\n".join(lines)
 
     def plot(self, metric: str | None = None, *, ax=None, file=None, overwrite: bool = False):
-        """A bar chart of S1 and ST per input with their intervals (:func:`lsc.plots.sobol_indices`)."""
+        """A bar chart of S1 and ST per input with their intervals
+        (:func:`lsc.plots.sobol_indices`)."""
         from ..plots import sobol_indices
         return sobol_indices(self, metric, ax=ax, file=file, overwrite=overwrite)
 

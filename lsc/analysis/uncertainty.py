@@ -97,8 +97,8 @@ class MonteCarlo(SummaryHTML):
         n_ok = int(np.sum(self.ok))
         design = {"random": "", "sobol": ", scrambled Sobol' points",
                   "lhs": ", Latin hypercube"}[self.sampling]
-        lines = [f"{s.name}: Monte Carlo, {self.n} samples (seed {self.seed}{design}), {n_ok} solved"
-                 f" ({self.n - n_ok} failed), method {self.sweep.method}",
+        lines = [f"{s.name}: Monte Carlo, {self.n} samples (seed {self.seed}{design}), "
+                 f"{n_ok} solved ({self.n - n_ok} failed), method {self.sweep.method}",
                  "", "sampled: " + ", ".join(self.samples), *self._correlation_lines(), "",
                  f"{'metric':<34} {'unit':>6} {head}"]
         for name, (label, per) in METRICS.items():
@@ -270,6 +270,8 @@ class _Normal:
         from scipy import stats
         if self.sd == 0:
             return np.full(u.shape, np.clip(self.mean, self.lo, self.hi))
+        if not self.truncated:
+            return stats.norm.ppf(u, loc=self.mean, scale=self.sd)
         a, b = (self.lo - self.mean) / self.sd, (self.hi - self.mean) / self.sd
         return stats.truncnorm.ppf(u, a, b, loc=self.mean, scale=self.sd)
 
