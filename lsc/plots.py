@@ -460,3 +460,44 @@ def tornado(sens, metric: str = "delta_v", index=None, *, swing=None, ax=None, f
         return fig
     from .outputs import write_file
     return write_file(file, lambda f: fig.savefig(f, dpi=150), overwrite=overwrite)
+
+
+def sobol_indices(gsa, metric=None, *, ax=None, file=None, overwrite: bool = False):
+    """Bars of the first-order (S1) and total (ST) Sobol' indices of each input, with their
+    confidence intervals as error bars, from a
+    :class:`~lsc.analysis.global_sensitivity.GlobalSensitivity`: one panel per metric column
+    (``metric``: only that one, e.g. ``"delta_v[target]"``). Draws on ``ax`` (one metric) or a
+    new figure; returns the figure (with ``file``: saves it there and returns the path)."""
+    from matplotlib.figure import Figure
+    metrics = list(gsa.metrics) if metric is None else [metric]
+    for m in metrics:
+        if m not in gsa.metrics:
+            raise ValueError(f"metric {m!r} is not among {', '.join(gsa.metrics)}")
+    if ax is None:
+        fig = Figure(figsize=(7.0, 0.6 + (1.0 + 0.5 * len(gsa.inputs)) * len(metrics)),
+                     layout="constrained")
+        axes = fig.subplots(len(metrics), 1, squeeze=False)[:, 0]
+    else:
+        if len(metrics) != 1:
+            raise ValueError("give one metric to draw on ax")
+        fig, axes = ax.figure, [ax]
+    labels = [param_label(gsa.scene, p) for p in gsa.inputs]
+    y = np.arange(len(labels))[::-1]  # the table's first input on top
+    for a, m in zip(axes, metrics):
+        rows = gsa.table[gsa.table["metric"] == m]
+        for shift, key, color in ((0.18, "S1", "C0"), (-0.18, "ST", "C3")):
+            a.barh(y + shift, rows[key], xerr=rows[f"{key}_conf"], height=0.34, color=color,
+                   capsize=3, label={"S1": "first order S1", "ST": "total ST"}[key])
+        a.set_yticks(y)
+        a.set_yticklabels(labels)
+        a.axvline(0.0, color="0.3", lw=0.8)
+        a.set_title(f"{m}: Sobol' indices (± {100 * gsa.conf_level:g} % interval)", fontsize=10)
+        a.grid(True, axis="x", alpha=0.3)
+    axes[-1].set_xlabel("share of the metric's variance")
+    _legend_below(axes[-1])
+    fig.suptitle(f"{gsa.scene.name}: {gsa.n} base samples, {gsa.sweep.status.size} solves",
+                 fontsize=10)
+    if file is None:
+        return fig
+    from .outputs import write_file
+    return write_file(file, lambda f: fig.savefig(f, dpi=150), overwrite=overwrite)

@@ -223,3 +223,151 @@ def test_bumper_failure_at_a_preloaded_tables_step_is_kept():
     assert mc.sweep.method == "exact" and np.all(mc.sweep.ok)
     speeds = mc.samples["vehicles.0.speed"]
     np.testing.assert_allclose(mc.sweep.failure_time[:, 0], 0.5 / speeds, rtol=1e-14)
+
+
+# --------------------------------------------------------------------------- designs, correlation
+from scipy import stats  # noqa: E402
+
+THREE = {"vehicles.0.speed": {"uniform": [4, 8]},
+         "vehicles.1.weight": {"normal": [3500, 100]},
+         "contacts.0.unloading.restitution": {"triangular": [0.2, 0.4, 0.7]}}
+CDFS = {"vehicles.0.speed": stats.uniform(4, 4).cdf,
+        "vehicles.1.weight": stats.norm(3500, 100).cdf,
+        "contacts.0.unloading.restitution": stats.triang(0.4, loc=0.2, scale=0.5).cdf}
+
+
+def test_random_sampling_is_todays_draws_bit_for_bit():
+    """The default design is one PCG64 generator drawing the paths in the table's order, as
+    before the designs existed: the same numbers as those draws written out here."""
+    rng = np.random.default_rng(7)
+    expected = {"vehicles.0.speed": rng.uniform(4, 8, 500),
+                "vehicles.1.weight": rng.normal(3500, 100, 500),
+                "contacts.0.unloading.restitution": rng.triangular(0.2, 0.4, 0.7, 500),
+                "vehicles.0.weight": np.array([3000.0, 3500.0])[rng.integers(0, 2, 500)]}
+    d = {**THREE, "vehicles.0.weight": {"choice": [3000, 3500]}}
+    for got in (sample(paper_scene(), d, 500, seed=7),
+                sample(paper_scene(), d, 500, seed=7, sampling="random"),
+                monte_carlo(paper_scene(), d, 500, seed=7, sampling="random").samples):
+        assert list(got) == list(expected)
+        for path in expected:
+            assert np.array_equal(got[path], expected[path])
+
+
+@pytest.mark.parametrize("sampling", ["sobol", "lhs"])
+def test_designs_put_one_member_in_each_equal_probability_stratum(sampling):
+    """A Latin hypercube, and a scrambled Sobol' net of 2^m points, hold exactly one point in each
+    of the n equal-probability intervals of every input: the inverse CDF keeps that, so each
+    input's CDF values fall one per stratum (a random sample leaves many empty)."""
+    n = 256
+    s = sample(paper_scene(), THREE, n, seed=3, sampling=sampling)
+    for path, cdf in CDFS.items():
+        strata = np.floor(cdf(s[path]) * n).astype(int)
+        assert np.array_equal(np.sort(strata), np.arange(n)), path
+    assert np.array_equal(s["vehicles.0.speed"],
+                          sample(paper_scene(), THREE, n, seed=3, sampling=sampling)["vehicles.0.speed"])
+    assert not np.array_equal(s["vehicles.0.speed"],
+                              sample(paper_scene(), THREE, n, seed=4, sampling=sampling)["vehicles.0.speed"])
+    r = sample(paper_scene(), THREE, n, seed=3)
+    assert len(np.unique(np.floor(CDFS["vehicles.0.speed"](r["vehicles.0.speed"]) * n))) < 0.7 * n
+
+
+def test_sobol_monte_carlo_mean_delta_v_is_closer_than_sampling_error():
+    """ΔV2 = (1+e) v0 m1/(m1+m2) = 0.7 v0 for equal masses, v0 ~ U(4, 8) ft/s: mean 4.2 ft/s.
+    1024 Sobol' points get the mean to ~1e-6 (QMC error ~ 1/n); plain sampling's standard error
+    is 0.7 * 4/√12/√1024 ≈ 0.025."""
+    mc = monte_carlo(paper_scene(), {"vehicles.0.speed": {"uniform": [4, 8]}}, 1024, seed=0,
+                     sampling="sobol")
+    assert mc.sampling == "sobol" and "scrambled Sobol' points" in mc.summary()
+    assert abs(np.mean(mc.sweep.delta_v[:, 1]) - 4.2) < 1e-4
+
+
+def test_unknown_sampling_is_refused_by_name():
+    with pytest.raises(lsc.SceneError) as e:
+        monte_carlo(paper_scene(), UNIFORM, 16, seed=0, sampling="halton")
+    assert str(e.value) == "sampling: the sampling design is one of random, sobol, lhs; got 'halton'"
+
+
+def test_sobol_count_not_a_power_of_two_is_kept_with_a_warning():
+    with pytest.warns(UserWarning, match=r"n = 100 is not a power of two: the first 100 points "
+                                         r"of a scrambled Sobol' sequence are used as asked.*"
+                                         r"use n = 64 or 128"):
+        s = sample(paper_scene(), UNIFORM, 100, seed=0, sampling="sobol")
+    assert s["vehicles.0.speed"].size == 100
+
+
+RANKS = [[1, 0.6, -0.3], [0.6, 1, 0], [-0.3, 0, 1]]
+
+
+@pytest.mark.parametrize("sampling", ["random", "sobol", "lhs"])
+@pytest.mark.parametrize("form", ["matrix", "pairs"])
+def test_correlated_inputs_have_the_requested_rank_correlation_and_their_marginals(sampling, form):
+    """The Gaussian copula gives the requested Spearman matrix (within the sampling error,
+    ~(1-ρ²)/√n ≈ 0.007 here) and leaves every marginal as specified (KS test)."""
+    corr = RANKS if form == "matrix" else [
+        ["vehicles.0.speed", "vehicles[1].weight", 0.6],
+        ["contacts.0.unloading.restitution", "vehicles.0.speed", -0.3]]
+    n = 16384
+    s = sample(paper_scene(), {**THREE, "correlation": corr}, n, seed=11, sampling=sampling)
+    rho = stats.spearmanr(np.column_stack([s[p] for p in THREE])).statistic
+    np.testing.assert_allclose(rho, RANKS, atol=0.03)
+    for path, cdf in CDFS.items():
+        assert stats.kstest(s[path], cdf).pvalue > 0.01, path
+
+
+def test_uncorrelated_inputs_stay_uncorrelated():
+    s = sample(paper_scene(), THREE, 16384, seed=5, sampling="lhs")
+    rho = stats.spearmanr(np.column_stack([s[p] for p in THREE])).statistic
+    np.testing.assert_allclose(rho, np.eye(3), atol=0.03)
+
+
+@pytest.mark.parametrize("corr, message", [
+    ([[1, 0.5], [0.5, 1]],
+     "uncertainty.correlation: a correlation matrix is 3 rows of 3 numbers, one per sampled input "
+     "in the table's order (vehicles.0.speed, vehicles.1.weight, "
+     "contacts.0.unloading.restitution), or pairs [[path_a, path_b, rho], ...]; got shape 2x2"),
+    ([[1, 0.5, 0], [0.4, 1, 0], [0, 0, 1]],
+     "uncertainty.correlation: the matrix must be symmetric; [0][1] = 0.5 but [1][0] = 0.4"),
+    ([[1, 0, 0], [0, 2, 0], [0, 0, 1]],
+     "uncertainty.correlation: the diagonal must be 1 (an input's correlation with itself); "
+     "entry [1][1] (vehicles.1.weight) is 2"),
+    ([[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]],
+     "uncertainty.correlation: the rank correlation matrix must be positive definite (its "
+     "smallest eigenvalue is -0.8): no inputs can have these correlations together"),
+    ([["vehicles.0.speed", "vehicles.0.weight", 0.5]],
+     "uncertainty.correlation[0]: 'vehicles.0.weight' is not a sampled input; the sampled inputs "
+     "are vehicles.0.speed, vehicles.1.weight, contacts.0.unloading.restitution"),
+    ([["vehicles.0.speed", "vehicles.1.weight", 0.5], ["vehicles.1.weight", "vehicles.0.speed", 0.2]],
+     "uncertainty.correlation[1]: each pair names two different inputs once; got "
+     "['vehicles.1.weight', 'vehicles.0.speed', 0.2]"),
+])
+def test_bad_correlation_is_refused_naming_the_field(corr, message):
+    with pytest.raises(lsc.SceneError) as e:
+        sample(paper_scene(), {**THREE, "correlation": corr}, 10, seed=0)
+    assert str(e.value) == message
+
+
+def test_a_choice_cannot_be_rank_correlated():
+    d = {"vehicles.0.speed": {"uniform": [4, 8]}, "vehicles.1.weight": [3000, 3500, 4000],
+         "correlation": [[1, 0.5], [0.5, 1]]}
+    with pytest.raises(lsc.SceneError) as e:
+        sample(paper_scene(), d, 10, seed=0)
+    assert e.value.path == "uncertainty.correlation"
+    assert "vehicles.1.weight is a choice" in str(e.value)
+    d["correlation"] = [[1, 0], [0, 1]]
+    assert set(sample(paper_scene(), d, 10, seed=0)["vehicles.1.weight"]) <= {3000, 3500, 4000}
+
+
+def test_lsc_mc_sampling_option(tmp_path, capsys):
+    import lsc.cli
+    f = tmp_path / "s.toml"
+    f.write_text('units = "US"\ng = "32.2 ft/s^2"\n'
+                 '[[vehicles]]\nweight = 3500\nspeed = 5\n[[vehicles]]\nweight = 3500\nspeed = 0\n'
+                 '[[contacts]]\nloading = { stiffness = 24000 }\nunloading = { restitution = 0.4 }\n'
+                 '[uncertainty]\n"vehicles.0.speed" = { uniform = [4, 8] }\n'
+                 '"vehicles.1.weight" = { uniform = [3000, 4000] }\n'
+                 'correlation = [["vehicles.0.speed", "vehicles.1.weight", 0.5]]\n')
+    assert lsc.cli.main(["mc", str(f), "--n", "64", "--sampling", "lhs", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "(seed 0, Latin hypercube)" in text
+    assert "rank correlation: vehicles.0.speed ~ vehicles.1.weight 0.5" in text
+    assert lsc.cli.main(["mc", str(f), "--n", "64", "--sampling", "grid"]) == 2

@@ -10,6 +10,8 @@
 - :func:`sensitivity`: derivatives (and elasticities) of ΔV, peak acceleration and pulse duration
   with respect to masses, speeds, stiffness and restitution, by forward-mode autodiff through the
   diffrax solve (events included) or by finite differences;
+- :func:`global_sensitivity`: Sobol' first-order and total indices of the metrics over the
+  uncertain inputs of an ``[uncertainty]`` table (SALib, with confidence intervals);
 - :func:`read_measured`, :func:`measured_curve`, :func:`series_measured`: measured force–deflection
   data as loading curves; :func:`cfc_filter`: the SAE J211 / ISO 6487 CFC filter;
 - :func:`read_channels`: crash-test channels from CSV/TSV/Excel tables or ISO-MME data sets;
@@ -24,6 +26,7 @@ from .bounds import Bound, max_closing_speed, peak_force
 from .calibration import Calibration, calibrate_force_scale, energy_force_scale
 from .channels import Channel, Channels, read_channels
 from .compare import Comparison, compare
+from .global_sensitivity import GlobalSensitivity, global_sensitivity
 from .fit import FitResult, fit, sampled_channels, scene_toml
 from .filters import CFC_CLASSES, cfc_coefficients, cfc_filter, cfc_response, j211_corridor
 from .measured import (curve_table, envelope, measured_curve, read_columns, read_measured,
@@ -39,7 +42,7 @@ __all__ = [
     "calibrate_force_scale", "energy_force_scale", "Calibration",
     "mer", "mer_for", "format_mer", "MER",
     "monte_carlo", "sample", "MonteCarlo",
-    "sensitivity", "Sensitivity", "default_params",
+    "sensitivity", "Sensitivity", "default_params", "global_sensitivity", "GlobalSensitivity",
     "read_measured", "read_columns", "measured_curve", "series_measured", "curve_table", "envelope",
     "cfc_filter", "cfc_coefficients", "cfc_response", "j211_corridor", "CFC_CLASSES",
     "read_channels", "Channels", "Channel", "iso18571", "ISO18571Rating", "compare", "Comparison",

@@ -3,7 +3,8 @@
 
     lsc bound SCENE --failure-force "5000 lbf" [--contact K] [--speed-path P] [--step S]
               [--margin-steps N] [--method M] [--json FILE] [--overwrite]
-    lsc mc SCENE [--n N] [--seed S] [--uncertainty FILE] [--method M] [--percentiles 5,50,95]
+    lsc mc SCENE [--n N] [--seed S] [--sampling random|sobol|lhs] [--uncertainty FILE]
+           [--method M] [--percentiles 5,50,95]
            [--out DIR] [--no-plots] [--no-progress] [--overwrite]
     lsc compare SCENE DATA [--method M] [--cfc C] [--time-zero T] [--out DIR] [--no-plots]
                 [--overwrite]
@@ -13,6 +14,8 @@
     lsc sensitivity SCENE [--params P,P,...] [--metrics M,M,...]
                     [--derivative autodiff|finite-difference] [--method M] [--rtol R]
                     [--plot FILE] [--plot-metric M] [--swing R] [--json FILE] [--overwrite]
+    lsc sensitivity SCENE --global [--samples N] [--seed S] [--uncertainty FILE]
+                    [--metrics M,M,...] [--method M] [--out DIR] [--no-plots] [--overwrite]
 
 Each is a pair ``add_<name>(subparsers)`` / ``cmd_<name>(args)`` (returns the exit status), as in
 :mod:`lsc.cli`; :class:`lsc.SceneError` and :class:`lsc.SimulationError` propagate to its
@@ -133,16 +136,22 @@ def _percentiles(text: str):
 def add_mc(sub) -> None:
     """Declare ``lsc mc``."""
     from ..scene import METHODS
+    from .uncertainty import SAMPLINGS
     p = sub.add_parser("mc", help="Monte Carlo over the scene's [uncertainty] distributions",
                        description="Sample the scene's [uncertainty] table (dotted paths to "
                        "{ normal = [mean, sd] }, { uniform = [lo, hi] }, { triangular = [lo, mode, "
-                       "hi] }, { choice = [...] }, { function = \"module:name\" }), solve every "
-                       "sample and print the percentiles of delta-V, peak acceleration, pulse "
-                       "duration and peak force.")
+                       "hi] }, { choice = [...] }, { function = \"module:name\" }; an optional "
+                       "correlation = [[1, 0.5], [0.5, 1]] or [[\"path_a\", \"path_b\", 0.5]]: "
+                       "Spearman rank correlations), solve every sample and print the "
+                       "percentiles of delta-V, peak acceleration, pulse duration and peak force.")
     p.add_argument("scene", metavar="SCENE", help="a scene TOML file (with an [uncertainty] table) "
                                                   "or a packaged scene name")
     p.add_argument("--n", type=int, default=10_000, help="number of samples (default 10000)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--sampling", choices=SAMPLINGS, default="random",
+                   help="the design: random (pseudo-random draws, default), sobol (scrambled "
+                        "Sobol' points: quasi-Monte Carlo; --n a power of two) or lhs (Latin "
+                        "hypercube)")
     p.add_argument("--uncertainty", metavar="FILE", help="a TOML file with the distributions")
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
     p.add_argument("--percentiles", type=_percentiles, default=(5.0, 50.0, 95.0),
@@ -184,7 +193,8 @@ def cmd_mc(args) -> int:
     out = Path(args.out) if args.out else None
     refuse_existing(_mc_files(out) if out else [], args.overwrite)
     require_parquet(bool(out) and args.parquet)
-    mc = monte_carlo(scene, dists, args.n, seed=args.seed, method=args.method,
+    mc = monte_carlo(scene, dists, args.n, seed=args.seed, sampling=args.sampling,
+                     method=args.method,
                      progress=False if args.no_progress else None, percentiles=args.percentiles)
     print(mc.summary())
     if out:
@@ -239,13 +249,14 @@ def add_sensitivity(sub) -> None:
                         "each contact's stiffness or force scale and restitution)")
     p.add_argument("--metrics", type=_names, default=list(DEFAULT_METRICS), metavar="M,M,...",
                    help="metrics (default " + ",".join(DEFAULT_METRICS) + ")")
-    p.add_argument("--derivative", choices=tuple(DERIVATIVES), default="autodiff",
+    p.add_argument("--derivative", choices=tuple(DERIVATIVES), default=None,
                    help="autodiff (forward mode through the diffrax solve, default) or "
                         "finite-difference (central differences of the --method solves)")
     p.add_argument("--method", type=_sensitivity_backend, default=None, metavar="M",
                    help="backend of the solves: diffrax for autodiff (the default there); any "
                         "backend for finite differences (default auto)")
-    p.add_argument("--rtol", type=float, default=1e-12, help="solver tolerance (default 1e-12)")
+    p.add_argument("--rtol", type=float, default=None,
+                   help="solver tolerance (default 1e-12; with --global: the backend's own)")
     p.add_argument("--backend", help=argparse.SUPPRESS)  # the old name of --method: refused
     p.add_argument("--plot", metavar="FILE", help="write a tornado chart (PNG, SVG, PDF)")
     p.add_argument("--plot-metric", default=None, metavar="M",
@@ -255,8 +266,41 @@ def add_sensitivity(sub) -> None:
                    help="tornado bars as the metric with each parameter moved by +-R of its value "
                         "(default: elasticities)")
     p.add_argument("--json", metavar="FILE", help="also write the sensitivities as JSON")
+    _add_global_options(p)
     add_overwrite_option(p)
     p.set_defaults(func=cmd_sensitivity)
+
+
+#: The files ``lsc sensitivity --global --out DIR`` writes.
+GLOBAL_FILES = ("sobol.csv", "sobol.png")
+#: ``lsc sensitivity`` options of the derivative analysis (refused with ``--global``).
+_LOCAL_ONLY = ("params", "derivative", "plot", "plot_metric", "swing", "json", "backend")
+#: ``lsc sensitivity`` options of ``--global`` (refused without it).
+_GLOBAL_ONLY = ("samples", "seed", "uncertainty", "out", "no_plots")
+
+
+def _add_global_options(p) -> None:
+    """Declare ``--global`` and its options on the ``lsc sensitivity`` parser ``p``."""
+    g = p.add_argument_group("global sensitivity", "Sobol' first-order and total indices of the "
+                             "metrics over the scene's [uncertainty] distributions (SALib), with "
+                             "their confidence intervals")
+    g.add_argument("--global", dest="global_", action="store_true",
+                   help="variance-based indices instead of derivatives")
+    g.add_argument("--samples", type=int, default=None, metavar="N",
+                   help="base samples of the Sobol' design, a power of two (default 1024; "
+                        "N x (inputs + 2) solves)")
+    g.add_argument("--seed", type=int, default=None, help="seed of the design (default 0)")
+    g.add_argument("--uncertainty", metavar="FILE", help="a TOML file with the distributions")
+    g.add_argument("--out", metavar="DIR", help="write sobol.csv (the table) and sobol.png (the "
+                                                "bar chart) here")
+    g.add_argument("--no-plots", action="store_true", help="with --out: no sobol.png")
+
+
+def _refuse_options(args, names, why: str) -> None:
+    """A ``SceneError`` on the first of ``names`` given on the command line."""
+    for name in names:
+        if getattr(args, name, None) not in (None, False):
+            raise SceneError(name.replace("_", "-"), f"--{name.replace('_', '-')} {why}")
 
 
 def _sensitivity_options(args) -> dict:
@@ -267,7 +311,7 @@ def _sensitivity_options(args) -> dict:
         raise SceneError("backend", "--backend is now --method (the backend of the solves, as "
                                     "for every command); the derivative technique is "
                                     "--derivative autodiff|finite-difference")
-    if args.derivative == "autodiff":
+    if args.derivative in (None, "autodiff"):
         if args.method not in (None, "diffrax"):
             raise SceneError("method", f"autodiff differentiates through the diffrax solve, not "
                                        f"{args.method}; use --method diffrax, or --derivative "
@@ -280,11 +324,15 @@ def cmd_sensitivity(args) -> int:
     """Run ``lsc sensitivity``: print the table (and write a tornado chart / JSON)."""
     from ..cli import resolve_scene
     from .sensitivity import sensitivity
+    if args.global_:
+        return _cmd_global_sensitivity(args)
+    _refuse_options(args, _GLOBAL_ONLY, "is an option of --global")
     options = _sensitivity_options(args)
     scene = resolve_scene(args.scene)
     files = _sensitivity_files(args)
     refuse_existing(files.values(), args.overwrite)
-    s = sensitivity(scene, args.params, metrics=args.metrics, rtol=args.rtol, **options)
+    s = sensitivity(scene, args.params, metrics=args.metrics,
+                    rtol=1e-12 if args.rtol is None else args.rtol, **options)
     print(s.summary())
     metric = args.plot_metric or args.metrics[0]
     if args.plot and metric not in s.derivatives:
@@ -300,6 +348,30 @@ def cmd_sensitivity(args) -> int:
     write_files(writers, overwrite=args.overwrite)
     if args.plot:
         print(f"\ntornado chart written to {args.plot}")
+    return 0
+
+
+def _cmd_global_sensitivity(args) -> int:
+    """Run ``lsc sensitivity --global``: print the Sobol' indices (and write CSV / bar chart)."""
+    from .global_sensitivity import global_sensitivity
+    _refuse_options(args, _LOCAL_ONLY, "is an option of the derivative sensitivity; with "
+                                       "--global the inputs are the [uncertainty] distributions")
+    scene, dists = load_with_uncertainty(args.scene, args.uncertainty)
+    out = Path(args.out) if args.out else None
+    files = [out / f for f in GLOBAL_FILES] if out else []
+    refuse_existing(files, args.overwrite)
+    options = {} if args.rtol is None else {"rtol": args.rtol}
+    g = global_sensitivity(scene, dists, metrics=args.metrics,
+                           n=1024 if args.samples is None else args.samples,
+                           seed=0 if args.seed is None else args.seed,
+                           method=args.method or "auto", **options)
+    print(g.summary())
+    if out:
+        writers = {out / "sobol.csv": lambda f: g.to_csv(f, overwrite=True)}
+        if not args.no_plots:
+            writers[out / "sobol.png"] = lambda f: g.plot(file=f, overwrite=True)
+        written = write_files(writers, overwrite=args.overwrite, replaces=files)
+        print(f"\nwritten to {out}/: " + ", ".join(p.name for p in written))
     return 0
 
 
