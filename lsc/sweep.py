@@ -473,7 +473,7 @@ def _exact_batch(base, values, setters, ok, metrics, status):
     run = np.nonzero(ok)[0]
     if run.size == 0:
         return
-    out = exact.solve_batch({k: v[run] for k, v in P.items()})
+    out = exact.solve_arrays({k: v[run] for k, v in P.items()})
     good = out["status"] == 0
     for name in metrics:
         arr = np.asarray(out[name], float)

@@ -106,12 +106,12 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     P = random_params(args.batch, args.points)
-    exact.solve_batch(take(P, slice(0, 100)))  # warm-up
+    exact.solve_arrays(take(P, slice(0, 100)))  # warm-up
     out = None
 
     def run_batch():
         nonlocal out
-        out = exact.solve_batch(P)
+        out = exact.solve_arrays(P)
 
     t_batch = best(run_batch, args.repeat)
     ok = out["status"] == 0
