@@ -4,7 +4,8 @@ Random two-vehicle scenes (SI units) with piecewise-linear loading tables of ``-
 that each hold a plateau (zero slope) and a falling (negative slope) segment and go on beyond the
 last point with a positive slope, and restitution unloading. Measured in one run:
 
-1. ``exact.solve_batch`` on ``--batch`` scenes (default 10^5): wall time (best of ``--repeat``).
+1. ``exact.solve_arrays`` (the vectorised stepper) on ``--batch`` scenes (default 10^5): wall
+   time (best of ``--repeat``).
 2. On ``--sample`` of those scenes, per scene: ``lsc`` SciPy DOP853 at rtol = 1e-10 (the model
    already built), the exact backend's ``solve`` (a full Result with 1000-sample series) and the
    exact batch time per scene, with the max error of exact against SciPy over ΔV, duration,
