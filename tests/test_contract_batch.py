@@ -136,6 +136,22 @@ def test_braked_scene_is_refused_by_the_exact_batch_and_swept_one_by_one():
 
 
 # ----------------------------------------------------------------------- sweep, generically
+def test_an_option_the_batch_path_does_not_take_is_not_dropped():
+    """``t_end`` is an option of the closed form's single solve, not of its batch path: the
+    sweep then solves each member with it (a ``t_end`` that cuts the crash gets the single
+    solve's error) instead of dropping it."""
+    scene = _scene({"stiffness": 24000.0}, {"restitution": 0.4})
+    speeds = [2.0, 5.0]
+    s = lsc.sweep(scene, {"vehicles.0.speed": speeds}, method="closed-form", t_end=0.01,
+                  progress=False)
+    base = lsc.Scene.load(scene)
+    for j, speed in enumerate(speeds):
+        with pytest.raises(lsc.SimulationError) as err:
+            lsc.solve(base.with_values({"vehicles.0.speed": speed}), method="closed-form",
+                      t_end=0.01)
+        assert s.status[j] == f"SimulationError: {err.value}"
+
+
 def test_sweep_source_names_no_backend():
     """``sweep.py`` reaches backends through their declarations only: no backend's module or
     method name appears in it as a name or as a string literal of its code."""

@@ -341,7 +341,7 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
     n = p["m"].shape[0]
     status = np.full(n, "ok", dtype=object)
     out = solve_arrays(arrays_of_model(model, p), max_events=max_events) if n else {}
-    metrics = {name: _member_axis(out.get(name, np.empty(0)), n, per, model)
+    metrics = {name: _member_axis(out[name] if n else None, n, per, model)
                for name, (_, per) in METRICS.items()}
     good = out["status"] == 0 if n else np.zeros(0, bool)
     if progress is not None and good.any():
@@ -354,9 +354,10 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
 
 
 def _member_axis(arr, n: int, per: str, model) -> np.ndarray:
-    """A metric of :func:`solve_arrays` with its METRICS shape: (n,), (n, N) or (n, K)."""
+    """A metric of :func:`solve_arrays` with its METRICS shape: (n,), (n, N) or (n, K) (no
+    members: ``arr`` is None)."""
     shape = {"scene": (n,), "vehicle": (n, model.N), "contact": (n, model.K)}[per]
-    return np.asarray(arr, float).reshape(shape) if n else np.full(shape, np.nan)
+    return np.full(shape, np.nan) if arr is None else np.asarray(arr, float).reshape(shape)
 
 
 def _solve_member(model, values: dict, j: int, metrics: dict, max_events: int) -> str:
