@@ -9,9 +9,10 @@ members are still returned.
 The sweep knows no backend: it resolves one (:func:`lsc.api.resolve`, ``auto`` preferring a
 batch path for a batch) and reads its declaration (:mod:`lsc.solvers.base`). Where the
 backend's batch path declares everything the scene uses, takes the options given and every swept
-path maps onto the model's numbers (:func:`lsc.parameters.setter`), all valid members go to its
-``solve_batch`` at once; otherwise (a sweep over solver settings, a path the batch cannot set, a
-backend with no batch path) the members are solved one by one, each with its own settings.
+path maps onto the model's numbers (:func:`lsc.parameters.batch_params`), all valid members go
+to its ``solve_batch`` at once; otherwise (a sweep over solver settings, a path the batch cannot
+set, a backend with no batch path) the members are solved one by one, each with its own
+settings.
 """
 
 from __future__ import annotations
@@ -404,9 +405,10 @@ def _check_count(name: str, value) -> None:
 def _batch_applies(decl, model: HybridModel, values: dict, options: dict) -> bool:
     """True when backend ``decl``'s batch path solves the sweep: it declares everything the
     scene uses, its modules are installed, every swept path maps onto the model's numbers and
-    it takes every option (and batch control) given."""
+    it takes every option (and batch control) given (:func:`lsc.parameters.batch_params`, tried
+    on the first member)."""
     return (not decl.missing(model, batch=True) and decl.available()
-            and all(parameters.setter(model.scene, p) is not None for p in values)
+            and parameters.batch_params(model, {p: v[:1] for p, v in values.items()}) is not None
             and set(options) <= set(decl.batch_options))
 
 

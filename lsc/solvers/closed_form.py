@@ -194,12 +194,12 @@ def solve_batch(model, values: dict, *, progress=None) -> dict:
     :func:`metrics`: ``{"metrics": {name: (n, ...) array for every name of lsc.result.METRICS},
     "status": (n,) object array of "ok"}`` (a closed-form member always completes).
     ``progress(k)``: called as ``k`` members finish."""
-    from ..parameters import batch_params, setter
+    from ..parameters import batch_params
     from ..result import METRICS
 
     p = batch_params(model, values)
     if p is None:
-        path = next(q for q in values if setter(model.scene, q) is None)
+        path = next(q for q in values if batch_params(model, {q: values[q][:1]}) is None)
         raise SceneError(path, "the closed-form batch sets only paths that map onto the model's "
                                "numbers (speeds, masses, weights, gaps, stiffnesses, "
                                "restitution); solve the members one by one (lsc.sweep does)")

@@ -334,7 +334,7 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
     """
     p = parameters.batch_params(model, values)
     if p is None:
-        path = next(q for q in values if parameters.setter(model.scene, q) is None)
+        path = next(q for q in values if parameters.batch_params(model, {q: values[q][:1]}) is None)
         raise SceneError(path, "the exact batch sets only paths that map onto the model's "
                                "numbers (speeds, masses, weights, gaps, stiffnesses, restitution, "
                                "loading scale); solve the members one by one (lsc.sweep does)")

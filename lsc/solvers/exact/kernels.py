@@ -9,8 +9,8 @@ with constant acceleration ``A`` (``c = b1/m1 - b2/m2``, ``A = (b1+b2)/M`` for c
 forces ``b1, b2`` per vehicle [force]: sliding friction ``-μ_i m_i g dir_i`` of a braked vehicle,
 zero otherwise). A vehicle its brakes hold (stuck) does not move at all: the relative motion is
 then the other vehicle's alone against a fixed one (its own mass for ``μ``; both held: nothing
-moves). With ``κ = s/μ`` [1/s²], ``D0, W0`` the deformation [length] and closing rate [velocity] and ``A0 = D''(0)``
-[acceleration] at the segment start, for every sign of ``κ``
+moves). With ``κ = s/μ`` [1/s²], ``D0, W0`` the deformation [length] and closing rate
+[velocity] and ``A0 = D''(0)`` [acceleration] at the segment start, for every sign of ``κ``
 
     D(τ) = D0 + W0 S(τ) + A0 C(τ),      D'(τ) = W0 + A0 S(τ) - κ W0 C(τ),
 
