@@ -9,6 +9,7 @@ import importlib
 import io
 import tokenize
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from lsc import solvers
 from lsc.model import HybridModel
 from lsc.result import METRICS
 from lsc.solvers.base import Backend
+from test_batch_equals_single import _assert_members_equal
 
 # A table with a plateau and a dip that ends at 0.4 m (fast members run off its end) and a
 # bumper failure force crossed by most members.
@@ -48,31 +50,13 @@ def _batch(method, scene, values, **options):
 
 
 def _assert_members_are_single_solves(out, scene, values, method, **options):
-    """Every member of a ``solve_batch`` answer against ``lsc.solve`` of that member alone: the
-    same metrics to 1e-12 relative (of the metric's largest magnitude over the batch), or the
+    """Every member of a ``solve_batch`` answer (every metric of METRICS, leading axis n)
+    against ``lsc.solve`` of that member alone: the same metrics to 1e-12 relative, or the
     single solve's own message. Returns the number of members solved."""
     n = len(next(iter(values.values())))
-    assert set(out["metrics"]) == set(METRICS)
-    assert out["status"].shape == (n,)
-    base = lsc.Scene.load(scene)
-    singles = {}
-    for j in range(n):
-        member = base.with_values({p: float(v[j]) for p, v in values.items()})
-        try:
-            singles[j] = lsc.solve(member, method=method, **options)
-        except lsc.SimulationError as err:
-            assert out["status"][j] == f"SimulationError: {err}"
-            assert all(np.isnan(out["metrics"][name][j]).all() for name in METRICS)
-    for name in METRICS:
-        assert out["metrics"][name].shape[0] == n, name
-        want = {j: np.asarray(getattr(r, name), float) for j, r in singles.items()}
-        scale = max((np.nanmax(np.abs(w), initial=0.0) for w in want.values()), default=0.0)
-        for j, w in want.items():
-            assert out["status"][j] == "ok", out["status"][j]
-            np.testing.assert_allclose(out["metrics"][name][j], w, rtol=1e-12,
-                                       atol=1e-12 * scale, equal_nan=True,
-                                       err_msg=f"member {j}, {name}")
-    return len(singles)
+    assert set(out["metrics"]) == set(METRICS) and out["status"].shape == (n,)
+    assert all(out["metrics"][name].shape[0] == n for name in METRICS)
+    return _assert_members_equal(SimpleNamespace(**out), scene, values, method, 1e-12, **options)
 
 
 # ------------------------------------------------------------------------------ closed form
