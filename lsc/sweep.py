@@ -6,11 +6,13 @@ axes of a grid). Every member is validated exactly as a scene would be: a member
 or whose physics cannot be completed gets its reason in ``status`` and NaN metrics, and the other
 members are still returned.
 
-Backends: ``closed-form`` is one vectorised NumPy evaluation; ``exact`` is one vectorised NumPy
-stepper over the batch; ``diffrax`` is one ``jax.vmap``-ed compiled solve per chunk of members
-(members that end at different times simply stop while the others go on); every other method
-loops over members. A sweep over solver settings (``solver.rtol``, ...) or over a path the batch
-paths cannot set loops, so that each member uses its own settings.
+The sweep knows no backend: it resolves one (:func:`lsc.api.resolve`, ``auto`` preferring a
+batch path for a batch) and reads its declaration (:mod:`lsc.solvers.base`). Where the
+backend's batch path declares everything the scene uses, takes the options given and every swept
+path maps onto the model's numbers (:func:`lsc.parameters.batch_params`), all valid members go
+to its ``solve_batch`` at once; otherwise (a sweep over solver settings, a path the batch cannot
+set, a backend with no batch path) the members are solved one by one, each with its own
+settings.
 """
 
 from __future__ import annotations
@@ -30,11 +32,7 @@ from .result import METRICS
 from .scene import Scene, UnloadingStiffness
 from . import parameters, solvers
 
-__all__ = ["sweep", "SweepResult", "CHUNK", "MAX_MEMBERS", "check_keywords"]
-
-#: Most members in one compiled ``diffrax`` call (a smaller sweep is padded to a power of two):
-#: small, because in a vmapped loop every member of a call waits for its slowest.
-CHUNK = 1024
+__all__ = ["sweep", "SweepResult", "MAX_MEMBERS", "check_keywords"]
 
 #: Most members of one sweep (a grid counts its product): the batch paths hold a few hundred
 #: bytes per member at once, so this bounds a sweep's memory to a few GiB. Split a larger study.
@@ -342,7 +340,7 @@ def _progress(total: int, progress):
 
 # --------------------------------------------------------------------------- the sweep
 def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False, progress=None,
-          chunk: int = CHUNK, workers: int | None = None, **options) -> SweepResult:
+          chunk: int | None = None, workers: int | None = None, **options) -> SweepResult:
     """Solve ``scene`` for every member of a parameter sweep.
 
     Parameters
@@ -354,15 +352,14 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
         one length; with ``grid=True`` each array is an axis and the sweep covers their product.
     method : str, optional
         Any ``lsc.solve`` method; by default the scene's own (``"auto"``: the cheapest exact
-        backend for the base scene).
+        backend, preferring one with a batch path for the scene).
     progress : bool or None
         Show a progress bar (``None``: only when stderr is a terminal).
-    chunk : int
-        ``diffrax`` batches: most members in one compiled vmapped call (memory and the time
-        the slowest member of a chunk holds the others are bounded by it; the progress bar
-        advances per chunk).
-    workers : int, optional
-        ``diffrax`` batches: chunks solved at once, in threads (default: the CPU count).
+    chunk, workers : int, optional
+        Batch controls (:data:`lsc.solvers.base.CONTROLS`) of backends whose batch path takes
+        them (the batched integrator): most members in one batch call, and batch calls run at
+        once. Given to a backend whose batch path does not take them, the members are solved
+        one by one. Unset: the backend's defaults.
     **options
         Solver options as for :func:`lsc.solve` (``rtol``, ``dt``, ...).
 
@@ -372,12 +369,9 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     """
     start = time.perf_counter()
     check_keywords("sweep", options, ("method", "grid", "progress", "chunk", "workers"))
-    if workers is None:
-        import os
-
-        workers = os.cpu_count() or 1
-    _check_count("chunk", chunk)
-    _check_count("workers", workers)
+    controls = {k: v for k, v in (("chunk", chunk), ("workers", workers)) if v is not None}
+    for name, value in controls.items():
+        _check_count(name, value)
     if not isinstance(grid, (bool, np.bool_)):
         raise SceneError("grid", f"grid must be True or False, got {grid!r}")
     base = Scene.load(scene)
@@ -385,28 +379,19 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     n = int(np.prod(shape))
     from .api import resolve
 
-    backend, opts = resolve(base, method, options)
+    model = HybridModel(base)
+    name, opts = resolve(base, method, options, model=model, members=n)
     status = _validate(base, values, n)
     metrics = _empty_metrics(base, n)
-    setters = {p: parameters.setter(base, p) for p in values}
-    fast = all(s is not None for s in setters.values())
-    ok = status == "ok"
-    if backend == "closed-form" and fast:
-        _closed_form_batch(base, values, setters, ok, metrics)
-    elif (backend == "exact" and fast and not set(opts) - {"n_samples"}
-          and not any(v.brake is not None for v in base.vehicles)
-          and not any(c.failure is not None and c.failure.post_failure is not None
-                      for c in base.contacts)):
-        # (the vectorised exact stepper has no friction and no post-failure curve: such scenes
-        # are solved one by one)
-        _exact_batch(base, values, setters, ok, metrics, status)
-    elif backend == "diffrax" and fast and _have_diffrax():
-        _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, chunk,
-                       workers)
+    decl = solvers.backend(name)
+    batch_opts = {**{k: v for k, v in opts.items() if k != "n_samples"}, **controls}
+    if _batch_applies(decl, model, values, batch_opts):
+        _batch(decl, model, values, batch_opts, status, metrics, progress)
     else:
+        name = resolve(base, method, options, model=model)[0]  # what each member's solve picks
         _loop(base, values, method, options, status, metrics, progress)
     wall = time.perf_counter() - start
-    return SweepResult(base, values, metrics, status, backend, tuple(shape),
+    return SweepResult(base, values, metrics, status, name, tuple(shape),
                        {"wall_time": wall, "members": n, "failed": int(np.sum(status != "ok"))})
 
 
@@ -417,73 +402,31 @@ def _check_count(name: str, value) -> None:
         raise SceneError(name, f"{name} must be a positive integer, got {value!r}")
 
 
-def _closed_form_batch(base, values, setters, ok, metrics):
-    """Every member at once through the vectorised closed form."""
-    from .solvers import closed_form
-
-    n = ok.size
-    p = parameters.batched(HybridModel(base).params, n)
-    for path, vals in values.items():
-        setters[path](p, vals)
-    c = p["contacts"][0]
-    k = c["ls"][:, 0]
-    e = c["e"] if "e" in c else np.sqrt(k / c["su"])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fail = base.contacts[0].failure
-        out = closed_form.metrics(p["m"][:, 0], p["m"][:, 1], p["v0"][:, 0], p["v0"][:, 1], k, e,
-                                  p["gap"][:, 0], base.g, fail.force if fail else np.nan)
-    for name in metrics:
-        arr = np.asarray(out[name], float)
-        if metrics[name].ndim == 2 and arr.ndim == 1:
-            arr = arr[:, None]
-        metrics[name][ok] = arr[ok]
+def _batch_applies(decl, model: HybridModel, values: dict, options: dict) -> bool:
+    """True when backend ``decl``'s batch path solves the sweep: it declares everything the
+    scene uses, its modules are installed, every swept path maps onto the model's numbers and
+    it takes every option (and batch control) given (:func:`lsc.parameters.batch_params`, tried
+    on the first member)."""
+    return (not decl.missing(model, batch=True) and decl.available()
+            and parameters.batch_params(model, {p: v[:1] for p, v in values.items()}) is not None
+            and set(options) <= set(decl.batch_options))
 
 
-def _exact_batch(base, values, setters, ok, metrics, status):
-    """Every member at once through the exact backend's vectorised stepper."""
-    from .solvers import exact
-    from .scene import UnloadingTable
-
-    n = ok.size
-    model = HybridModel(base)
-    p = parameters.batched(model.params, n)
-    for path, vals in values.items():
-        setters[path](p, vals)
-    law, c = model.laws[0], p["contacts"][0]
-    P = {"m1": p["m"][:, 0], "m2": p["m"][:, 1], "v1": p["v0"][:, 0], "v2": p["v0"][:, 1],
-         "gap": p["gap"][:, 0], "g": np.full(n, base.g)}
-    if law.n_load == 1 and law.extends and base.contacts[0].law.loading.f[0] == 0:
-        P["stiffness"] = c["ls"][:, 0]
-    else:
-        P["load_d"], P["load_f"] = c["ld"][:, : law.n_load], c["lf"][:, : law.n_load]
-        if law.extends:
-            P["load_end_slope"] = c["ls"][:, law.n_load - 1]
-    unl = base.contacts[0].law.unloading
-    if law.unload_kind == "restitution":
-        P["e"] = c["e"]
-    elif law.unload_kind == "stiffness":
-        P["unload_stiffness"] = c["su"]
-    else:
-        assert isinstance(unl, UnloadingTable)
-        P["unload_d"] = np.tile(np.asarray(unl.d, float), (n, 1))
-        P["unload_f"] = np.tile(np.asarray(unl.f, float), (n, 1))
-    fail = base.contacts[0].failure
-    if fail is not None:
-        P["failure_force"] = np.full(n, fail.force)
-    run = np.nonzero(ok)[0]
+def _batch(decl, model, values, options, status, metrics, progress) -> None:
+    """The valid members at once through backend ``decl``'s ``solve_batch``: their metrics,
+    and their status (``"ok"`` or the single solve's message)."""
+    run = np.flatnonzero(status == "ok")
     if run.size == 0:
         return
-    out = exact.solve_batch({k: v[run] for k, v in P.items()})
-    good = out["status"] == 0
+    bar = _progress(run.size, progress)
+    try:
+        out = decl.solve_batch(model, {p: v[run] for p, v in values.items()},
+                               progress=bar.update, **options)
+    finally:
+        bar.close()
     for name in metrics:
-        arr = np.asarray(out[name], float)
-        if metrics[name].ndim == 2 and arr.ndim == 1:
-            arr = arr[:, None]
-        metrics[name][run[good]] = arr[good]
-    # A member the batch could not complete is solved alone: its status is then the single
-    # solve's own message (with the contact and the time), word for word.
-    for j in run[~good]:
-        _solve_member(base, values, j, "exact", {}, status, metrics)
+        metrics[name][run] = out["metrics"][name]
+    status[run] = out["status"]
 
 
 def _loop(base, values, method, options, status, metrics, progress):
@@ -518,125 +461,3 @@ def _solve_member(base, values, j, method, options, status, metrics) -> None:
     status[j] = "ok"
     for name in metrics:
         metrics[name][j] = getattr(r, name)
-
-
-def _have_diffrax() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("diffrax") is not None
-
-
-def _horizons(model: HybridModel, p: dict) -> np.ndarray:
-    """:meth:`HybridModel.horizon` of every member (n,) [s] of the batched parameters ``p``: a
-    million contact times on the softest slope and the heaviest pair, plus four times what
-    closing every gap and crossing every table takes at the slowest initial closing speed."""
-    m, v0 = p["m"], p["v0"]
-    n = m.shape[0]
-    mu = np.max(m[:, :-1] * m[:, 1:] / (m[:, :-1] + m[:, 1:]), axis=1)
-    slopes = [np.abs(np.reshape(c[key], (n, -1))) for c in p["contacts"]
-              for key in ("ls", "su", "k") if key in c]
-    if slopes:
-        s = np.concatenate(slopes, axis=1)
-        s = np.where(np.isfinite(s) & (s > 0), s, np.inf)
-        k = np.min(s, axis=1)
-        k = np.where(np.isfinite(k), k, 1.0)
-    else:
-        k = np.ones(n)
-    v_scale = np.maximum(np.maximum(np.max(np.abs(v0), axis=1),
-                                    np.max(np.abs(np.diff(v0, axis=1)), axis=1)), 1e-300)
-    w = -np.diff(v0, axis=1)
-    w = np.where(w > 1e-12 * v_scale[:, None], w, np.inf)
-    w_min = np.min(w, axis=1)
-    w_min = np.where(np.isfinite(w_min), w_min, v_scale)
-    extent = np.sum(p["gap"], axis=1)
-    for c in p["contacts"]:
-        for key in ("ld", "ud"):
-            if key in c:
-                val = np.abs(np.reshape(c[key], (n, -1)))
-                val = np.where(val < 1e299, val, 0.0)
-                extent = extent + np.max(val, axis=1)
-    return 1e6 * np.sqrt(mu / k) + 4.0 * extent / w_min + 1.0
-
-
-def _work_order(p: dict) -> np.ndarray:
-    """An order of the members (batched parameters ``p``) that puts members that take similar
-    paths next to each other: by relative kinetic energy over the energy the loading curves
-    hold at their last breakpoint (which breakpoints a crash crosses, hence its segments)."""
-    m, v0 = np.asarray(p["m"], float), np.asarray(p["v0"], float)
-    mu = m[:, :-1] * m[:, 1:] / (m[:, :-1] + m[:, 1:])
-    w = np.maximum(v0[:, :-1] - v0[:, 1:], 0.0)
-    key = np.zeros(m.shape[0])
-    for k, c in enumerate(p["contacts"]):
-        cap = np.asarray(c["le"], float)[:, -2] if "le" in c else np.zeros(m.shape[0])
-        key = key + 0.5 * mu[:, k] * w[:, k] ** 2 / np.where(cap > 0, cap, 1.0)
-    return np.argsort(key, kind="stable")
-
-
-def _diffrax_batch(base, values, setters, ok, metrics, status, opts, progress, chunk, workers):
-    """The members in chunks of at most ``chunk``, each one vmapped compiled diffrax solve
-    (:func:`lsc.solvers.diffrax_ode.solve_batch`), ``workers`` chunks at a time (threads: a
-    compiled call releases the GIL). In a vmapped loop every member waits for the slowest of its
-    chunk, so the members are first ordered by :func:`_work_order` and the chunks are small.
-    Parameters that no member changes are shared, not batched. A smaller batch is padded (with
-    its last member) to a power of two, the last chunk to ``chunk``, so that few batch shapes
-    are compiled. A member that fails gets ``"SimulationError: ..."`` (the message a single
-    solve raises) and NaN metrics."""
-    import jax
-    from concurrent.futures import ThreadPoolExecutor
-
-    from .solvers import diffrax_ode as dx
-
-    run = np.nonzero(ok)[0]
-    if run.size == 0:
-        return
-    model = HybridModel(base)
-    p = parameters.batched(model.params, ok.size)
-    for path, vals in values.items():
-        setters[path](p, vals)
-    leaves, tree = jax.tree_util.tree_flatten(model.params)
-    batch = [np.asarray(b)[run] for b in tree.flatten_up_to(p)]
-    pr = jax.tree_util.tree_unflatten(tree, batch)
-    order = _work_order(pr)
-    run = run[order]
-    batch = [b[order] for b in batch]
-    horizon = _horizons(model, jax.tree_util.tree_unflatten(tree, batch))
-    varies = [bool(np.any(b != np.asarray(a, float))) for a, b in zip(leaves, batch)]
-    if not any(varies):  # every member is the base scene: batch one leaf all the same
-        varies[0] = True
-    batch = [b if v else np.asarray(a, float) for a, b, v in zip(leaves, batch, varies)]
-    kw = {k: v for k, v in opts.items() if k != "n_samples"}
-    size = min(max(1, int(chunk)), 1 << (run.size - 1).bit_length())
-    starts = list(range(0, run.size, size))
-
-    def solve(lo):
-        idx = np.arange(lo, min(lo + size, run.size))
-        pad = np.concatenate([idx, np.full(size - idx.size, idx[-1])])
-        pb = jax.tree_util.tree_unflatten(tree, [b[pad] if v else b
-                                                 for b, v in zip(batch, varies)])
-        return idx, dx.solve_batch(model, pb, horizon=horizon[pad], **kw)
-
-    def store(idx, res):
-        members = run[idx]
-        good = res["status"][: idx.size] == 0
-        for name in metrics:
-            arr = np.asarray(res[name], float)[: idx.size]
-            if metrics[name].ndim == 2 and arr.ndim == 1:
-                arr = arr[:, None]
-            metrics[name][members[good]] = arr[good]
-        for j in np.nonzero(~good)[0]:
-            status[members[j]] = f"SimulationError: {res['message'][j]}"
-        bar.update(idx.size)
-
-    bar = _progress(run.size, progress)
-    try:
-        store(*solve(starts[0]))  # compiles (once per structure, options and chunk size)
-        workers = max(1, min(int(workers), len(starts) - 1))
-        if workers > 1:
-            with ThreadPoolExecutor(workers) as pool:
-                for idx, res in pool.map(solve, starts[1:]):
-                    store(idx, res)
-        else:
-            for lo in starts[1:]:
-                store(*solve(lo))
-    finally:
-        bar.close()

@@ -4,7 +4,8 @@ Random two-vehicle scenes (SI units) with piecewise-linear loading tables of ``-
 that each hold a plateau (zero slope) and a falling (negative slope) segment and go on beyond the
 last point with a positive slope, and restitution unloading. Measured in one run:
 
-1. ``exact.solve_batch`` on ``--batch`` scenes (default 10^5): wall time (best of ``--repeat``).
+1. ``exact.solve_arrays`` (the vectorised stepper) on ``--batch`` scenes (default 10^5): wall
+   time (best of ``--repeat``).
 2. On ``--sample`` of those scenes, per scene: ``lsc`` SciPy DOP853 at rtol = 1e-10 (the model
    already built), the exact backend's ``solve`` (a full Result with 1000-sample series) and the
    exact batch time per scene, with the max error of exact against SciPy over ΔV, duration,
@@ -106,12 +107,12 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     P = random_params(args.batch, args.points)
-    exact.solve_batch(take(P, slice(0, 100)))  # warm-up
+    exact.solve_arrays(take(P, slice(0, 100)))  # warm-up
     out = None
 
     def run_batch():
         nonlocal out
-        out = exact.solve_batch(P)
+        out = exact.solve_arrays(P)
 
     t_batch = best(run_batch, args.repeat)
     ok = out["status"] == 0

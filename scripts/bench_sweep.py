@@ -56,13 +56,13 @@ WORKER = textwrap.dedent("""
     opts = cfg.get("options", {})
     compile_time = float("nan")
     if cfg["method"] == "diffrax":  # compile on one chunk of the shape the sweep will use
-        from lsc.sweep import CHUNK
-        k = min(n, CHUNK)
+        chunk = cfg["chunk"]
+        k = min(n, chunk)
         t0 = time.perf_counter()
         lsc.sweep(scene, {p: v[:k] for p, v in params.items()}, method="diffrax", progress=False,
-                  **opts)
+                  chunk=chunk, **opts)
         compile_time = time.perf_counter() - t0
-        opts = dict(opts, workers=cfg.get("workers"))
+        opts = dict(opts, chunk=chunk, workers=cfg.get("workers"))
     t0 = time.perf_counter()
     s = lsc.sweep(scene, params, method=cfg["method"], progress=False, **opts)
     wall = time.perf_counter() - t0
@@ -75,11 +75,11 @@ WORKER = textwrap.dedent("""
 
 
 def run(method: str, n: int, seed: int, take: int | None = None, options=None,
-        workers=None) -> dict:
+        workers=None, chunk: int = 1024) -> dict:
     """One configuration in a fresh process: wall time [s], compile time [s] (diffrax), peak
     RSS [MB], per-member ok flags and (ΔV1, ΔV2, duration, peak force)."""
     cfg = {"scene": SCENE, "method": method, "n": n, "seed": seed, "take": take,
-           "options": options or {}, "workers": workers}
+           "options": options or {}, "workers": workers, "chunk": chunk}
     proc = subprocess.run([sys.executable, "-c", WORKER, json.dumps(cfg)], capture_output=True,
                           text=True)
     if proc.returncode:
@@ -108,7 +108,9 @@ def main(argv=None) -> int:
                     help="rtol of scipy (DOP853 needs ~1e-11 for a 1e-9 error here)")
     ap.add_argument("--integrator", default="Dopri8", help="diffrax integrator")
     ap.add_argument("--workers", type=int, default=None,
-                    help="diffrax chunks solved at once (default: the CPU count)")
+                    help="diffrax chunks solved at once (default: the backend's, the CPU count)")
+    ap.add_argument("--chunk", type=int, default=1024,
+                    help="diffrax members in one compiled call (compiled once for this shape)")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)
     have_diffrax = importlib.util.find_spec("diffrax") is not None
@@ -119,7 +121,7 @@ def main(argv=None) -> int:
         rows = [("exact (batched)", ref)]
         if have_diffrax:
             rows.append((f"diffrax {args.integrator} (batched)",
-                         run("diffrax", n, args.seed, workers=args.workers,
+                         run("diffrax", n, args.seed, workers=args.workers, chunk=args.chunk,
                              options={"rtol": args.rtol, "integrator": args.integrator})))
         sub = min(args.scipy_subset, n)
         rows.append((f"scipy (looped, {sub} of {n})",

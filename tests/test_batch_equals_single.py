@@ -32,7 +32,8 @@ PRELOADED = _two({"loading": {"table": [[0, 6000], [0.5, 20000]]},
 
 
 def _assert_members_equal(s, base, params, method, rtol, **options):
-    """Each member of sweep ``s`` against ``lsc.solve`` of that member alone, to ``rtol`` of
+    """Each member of sweep ``s`` (or of any answer with ``status`` and ``metrics``, such as a
+    backend's ``solve_batch``) against ``lsc.solve`` of that member alone, to ``rtol`` of
     the metric's largest magnitude over the sweep (a restitution of 0 is 0 to rounding).
     Returns the number of members solved."""
     n = len(next(iter(params.values())))

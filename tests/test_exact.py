@@ -360,7 +360,7 @@ def test_momentum_conserved(sc):
 
 # --------------------------------------------------------------------------- batch
 def _batch_vs_single(scenes, tol=1e-12):
-    out = exact.solve_batch(exact.batch_params(scenes))
+    out = exact.solve_arrays(exact.batch_params(scenes))
     for i, sc in enumerate(scenes):
         try:
             r = exact.solve(HybridModel(sc))
@@ -403,7 +403,7 @@ def test_batch_other_unloading_rules_and_ending_tables(unloading):
 def test_batch_linear_loading_matches_closed_form():
     ratio, e, k = np.meshgrid([0.1, 1.0, 10.0], [0.0, 0.3, 1.0], [1e3, 2.4e4, 1e6])
     m1 = 1500.0 * ratio.ravel()
-    out = exact.solve_batch({"m1": m1, "m2": 1500.0, "v1": 5.0, "v2": 1.0,
+    out = exact.solve_arrays({"m1": m1, "m2": 1500.0, "v1": 5.0, "v2": 1.0,
                              "stiffness": k.ravel(), "e": e.ravel(), "gap": 0.1})
     cf = closed_form.metrics(m1, 1500.0, 5.0, 1.0, k.ravel(), e.ravel(), gap=0.1)
     assert np.all(out["status"] == 0)
@@ -417,8 +417,8 @@ def test_batch_law_parameters_are_the_laws():
     scenes = [scene(1000.0, 1000.0, 3.0, 0.0, Curve(np.r_[0, np.cumsum(rng.uniform(.01, .1, 4))],
                                                    np.r_[0, np.cumsum(rng.uniform(1e3, 1e4, 4))],
                                                    1e5), Restitution(0.5)) for _ in range(5)]
-    P = exact._batch_inputs(exact.batch_params(scenes))
-    law, p, _ = exact._batch_law(P)
+    P = exact.arrays._batch_inputs(exact.batch_params(scenes))
+    law, p, _ = exact.batch._batch_law(P)
     for i, sc in enumerate(scenes):
         ref = HysteresisLaw(sc.contacts[0].law).params
         for key in ("ld", "lf", "ls", "le"):
@@ -430,13 +430,13 @@ def test_batch_statuses():
                    Restitution(0.5))
     sc_ok = scene(1500.0, 1500.0, 1.0, 0.0, Curve.table([[0, 0], [0.05, 1e4], [0.1, 2e4]]),
                   Restitution(0.5))
-    out = exact.solve_batch(exact.batch_params([sc_end, sc_ok, sc_end]))
+    out = exact.solve_arrays(exact.batch_params([sc_end, sc_ok, sc_end]))
     assert list(out["status"]) == [1, 0, 1]
     assert np.isnan(out["delta_v"][0]).all() and np.isfinite(out["delta_v"][1]).all()
-    limited = exact.solve_batch(exact.batch_params([sc_ok]), max_events=2)
+    limited = exact.solve_arrays(exact.batch_params([sc_ok]), max_events=2)
     assert limited["status"][0] == exact.EVENT_LIMIT
     with pytest.raises(ValueError, match="unloading"):
-        exact.solve_batch({"m1": 1.0, "m2": 1.0, "v1": 1.0, "v2": 0.0, "stiffness": 1.0})
+        exact.solve_arrays({"m1": 1.0, "m2": 1.0, "v1": 1.0, "v2": 0.0, "stiffness": 1.0})
 
 
 # --------------------------------------------------------------------------- bumper failure
@@ -455,7 +455,7 @@ def test_failure_time_matches_closed_form_and_scipy():
     assert ex.failure_time[0] == pytest.approx(sp.failure_time[0], rel=1e-10)
     ff = lsc.Scene.load(d)
     never = ff.with_values({"contacts.0.failure.force": 1e6})
-    out = exact.solve_batch(exact.batch_params([ff, never]))
+    out = exact.solve_arrays(exact.batch_params([ff, never]))
     assert out["failure_time"][0] == pytest.approx(ex.failure_time[0], rel=1e-14)
     assert np.isnan(out["failure_time"][1])
     assert out["events"][0] == len(ex.events)
@@ -480,7 +480,7 @@ def test_table_end_exactly_when_the_energy_runs_out(v0):
     sc = scene(250.0, 250.0, v0, 0.0, Curve.table([[0, 0], [0.05, 1e4], [0.1, 2e4]]),
                Restitution(0.5))
     assert _table_ends_first(sc) == (v0 > 4.0)
-    out = exact.solve_batch(exact.batch_params([sc]))
+    out = exact.solve_arrays(exact.batch_params([sc]))
     assert out["status"][0] == (1 if v0 > 4.0 else 0)
     if v0 > 4.0:
         with pytest.raises(lsc.SimulationError, match="loading table ends"):
@@ -524,7 +524,7 @@ def test_auto_prefers_closed_form_then_exact():
     with pytest.raises(ValueError, match="braked scenes are not batched"):
         exact.batch_params([tab, braked])
     with pytest.raises(ValueError, match="not batched"):
-        exact.solve_batch({**exact.batch_params([tab]), "mu1": 0.5})
+        exact.solve_arrays({**exact.batch_params([tab]), "mu1": 0.5})
 
 
 # --------------------------------------------------------------------------- braking

@@ -19,7 +19,7 @@ from ..result import Event, Result
 from ..scene import Restitution
 from .base import Backend
 
-__all__ = ["BACKEND", "applies", "why_not", "parameters", "metrics", "solve"]
+__all__ = ["BACKEND", "applies", "why_not", "parameters", "metrics", "solve", "solve_batch"]
 
 
 #: The closed form's declaration: two vehicles, linear loading from the origin, a straight
@@ -186,3 +186,34 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
     r._raise_peaks([(imp.t_start, imp.t_end, [float(met["peak_force"])], met["peak_acceleration"])])
     r.failure_time = np.array([float(met["failure_time"])])
     return r
+
+
+def solve_batch(model, values: dict, *, progress=None) -> dict:
+    """Exact metrics of every member of ``values`` (dotted scene path → (n,) array in scene
+    units, every member valid) of ``model``'s closed-form scene, in one vectorised evaluation of
+    :func:`metrics`: ``{"metrics": {name: (n, ...) array for every name of lsc.result.METRICS},
+    "status": (n,) object array of "ok"}`` (a closed-form member always completes).
+    ``progress(k)``: called as ``k`` members finish."""
+    from ..parameters import batch_params
+    from ..result import METRICS
+
+    p = batch_params(model, values)
+    if p is None:
+        path = next(q for q in values if batch_params(model, {q: values[q][:1]}) is None)
+        raise SceneError(path, "the closed-form batch sets only paths that map onto the model's "
+                               "numbers (speeds, masses, weights, gaps, stiffnesses, "
+                               "restitution); solve the members one by one (lsc.sweep does)")
+    n = p["m"].shape[0]
+    c = p["contacts"][0]
+    k = c["ls"][:, 0]
+    fail = model.scene.contacts[0].failure
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = c["e"] if "e" in c else np.sqrt(k / c["su"])
+        out = metrics(p["m"][:, 0], p["m"][:, 1], p["v0"][:, 0], p["v0"][:, 1], k, e,
+                      p["gap"][:, 0], model.scene.g, fail.force if fail else np.nan)
+    shape = {"scene": (n,), "vehicle": (n, model.N), "contact": (n, model.K)}
+    res = {name: np.asarray(out[name], float).reshape(shape[per])
+           for name, (_, per) in METRICS.items()}
+    if progress is not None:
+        progress(n)
+    return {"metrics": res, "status": np.full(n, "ok", dtype=object)}

@@ -93,7 +93,7 @@ def test_missed_event_is_an_error_not_a_result(monkeypatch):
     def blind(xp, g, *args, **kw):
         return float("inf"), 0, False
 
-    monkeypatch.setattr(exact, "_next_event", blind)
+    monkeypatch.setattr(exact.single, "_next_event", blind)
     with pytest.raises(lsc.SimulationError, match="no event before .* never separates"):
         lsc.solve(LINEAR, method="exact")
     monkeypatch.setattr(HybridModel, "active_events", lambda self, disc: [])

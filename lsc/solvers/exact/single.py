@@ -1,0 +1,158 @@
+"""The exact backend's one-scene solve: segment after segment (:mod:`.kernels`), braking
+(:mod:`.braking`) included, through :func:`~lsc.solvers.segments.run_segments`, as a Result.
+
+The transitions between segments are the law's own ``on_event``, evaluated on Python scalars
+(:class:`_ScalarTransitions`), never re-derived here; the brakes' transitions are the model's
+(:class:`~lsc.effects.BrakeEffect`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..segments import Step, build_result, run_segments
+from .braking import _stop_time, _turning_deformations
+from .kernels import _PY, _end_force, _force_rise_time, _next_event, _setup, _state
+
+
+class _ScalarTransitions:
+    """The model as :func:`run_segments` sees it, with the law's transitions (its own
+    ``on_event``) evaluated on Python floats and lists (namespace :data:`_PY`), about 10x cheaper
+    than NumPy on 0-d values. Everything else is the model's own."""
+
+    def __init__(self, model):
+        self._model = model
+        self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
+                    for law in model.laws]
+        for pp in self._pp:   # relative to the anchor, any rebound width is resolved
+            pp["wres"] = 0.0
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
+
+    def apply_event(self, i, t, y, disc, p, xp=None):
+        """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
+        k, w = self._model.events[i]
+        if k >= self._model.K:  # an effect (brake, bumper failure): the model's own, on NumPy
+            return self._model.apply_event(i, t, y, disc, p)
+        D, Dd = self._model.deformation(np.asarray(y, float), p)
+        new = list(disc)
+        new[k] = self._model.laws[k].on_event(w, float(D[k]), float(Dd[k]), disc[k],
+                                              self._pp[k], _PY)
+        return new
+
+
+def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000):
+    """Solve a two-vehicle hysteresis ``model`` exactly, segment by segment, as a Result.
+
+    ``t_end`` [time]: simulate until then (must not cut the crash); ``n_samples``: points in the
+    sampled series (every event is a sample); ``max_events``: limit on discrete events.
+
+    Braked vehicles slide (constant friction force) or stick (held, ``a = 0``) as their
+    :class:`~lsc.effects.BrakeEffect` says; the run ends when the model says the crash is over
+    (a braked vehicle still sliding after the last separation produces its stop event), and
+    ``v_final`` is taken at the last separation. Peaks are exact: with friction the force need
+    not be monotone along a segment, so its turning points count as well. The declaration is
+    checked by :func:`lsc.solvers.exact.solve`, not here.
+    """
+    p = model.params
+    m1, m2 = (float(m) for m in p["m"])
+    gap = float(p["gap"][0])
+    ev_index = [model.events.index((0, w)) for w in range(3)]
+    vtol = 1e-12 * model.v_scale
+
+    law = model.laws[0]
+    peak = [0.0]
+    # a declared bumper failure (of contact 0): its part, event and force
+    failure = [(model.parts.index(f), model.events.index((model.parts.index(f), 0)),
+                float(f.params["force"])) for f in getattr(model, "failures", [])]
+    ev_index += [ev for _, ev, _ in failure]
+    # declared brakes: part, vehicle, sliding friction force per direction [force], static
+    # limit [force], and the events (stop, break-away: forward for the target, whose net contact
+    # force F pushes it forward; backward for the bullet, pushed back by F)
+    brakes = []
+    for b in getattr(model, "brakes", []):
+        j, m = model.parts.index(b), (m1, m2)[b.i]
+        gg = float(b.params["g"])
+        brakes.append((j, b.i, float(b.params["mu"]) * m * gg, float(b.params["mus"]) * m * gg,
+                       model.events.index((j, 0)), model.events.index((j, 1 if b.i else 2))))
+    mass = (m1, m2)
+    peak_a = [0.0, 0.0]
+
+    def advance(t0, y0, disc, horizon):
+        st = disc[0]
+        x1, x2, v1, v2 = (float(v) for v in y0[:4])
+        hold, push = [False, False], [0.0, 0.0]
+        for j, i, slide, _, _, _ in brakes:
+            if disc[j]["slide"]:
+                push[i] = -slide * disc[j]["dir"]
+            else:
+                hold[i] = True
+        g = _setup(x1, x2, v1, v2, m1, m2, gap, st["fa"], st["s"], st["da"], push[0], push[1],
+                   hold[0], hold[1])
+        armed = [ff for j, _, ff in failure if not disc[j]["failed"]]
+        fail = (st["fa"], st["s"], st["da"], armed[0]) if armed else None
+        tau, which, sep = _next_event(_PY, g, st["da"], st["lo"], st["wl"], st["hi"], st["vm"],
+                                      vtol, fail)
+        event = ev_index[which] if tau < math.inf else None
+        stopped = None
+        for j, i, _, limit, ev_stop, ev_break in brakes:
+            if disc[j]["slide"]:
+                cand = _stop_time(g, i, disc[j]["dir"], min(tau, horizon - t0))
+                ev = ev_stop
+            else:
+                cand = _force_rise_time(_PY, g, st["fa"], st["s"], st["da"], limit, vtol)
+                ev = ev_break
+            if cand < tau or (cand == tau and event is not None and ev < event):
+                tau, event, stopped = cand, ev, (i if ev == ev_stop else None)
+        if not t0 + tau <= horizon:
+            tau, event, stopped = horizon - t0, None, None
+        sep = bool(sep)
+        end = list(_state(_PY, tau, g, sep))
+        if stopped is not None:
+            end[2 + stopped] = 0.0   # the stop, exactly (held at zero while stuck)
+        if not brakes:
+            peak[0] = max(peak[0], g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+        else:
+            # the force over the segment: at its ends and where D turns inside it
+            Ds = [g.D0, end[0] - end[1] - gap, *_turning_deformations(g, tau)]
+            Fs = [_end_force(_PY, law, D, st) for D in Ds]
+            lo_f, hi_f = min(Fs), max(Fs)
+            peak[0] = max(peak[0], hi_f)
+            for i, sign in ((0, -1.0), (1, 1.0)):
+                if hold[i]:
+                    continue
+                for F in (hi_f, lo_f):
+                    a = (sign * F + push[i]) / mass[i]
+                    if abs(a) > abs(peak_a[i]):
+                        peak_a[i] = a
+
+        def dense(tt, g=g, t0=t0, t1=t0 + tau, stopped=stopped, sep=sep):
+            tt = np.asarray(tt, float)
+            with np.errstate(all="ignore"):
+                out = np.array(_state(np, tt - t0, g, sep))
+            if stopped is not None:  # at rest from the stop on, as the state is
+                out[2 + stopped] = np.where(tt >= t1, 0.0, out[2 + stopped])
+            return out
+
+        return Step(t0 + tau, np.array(end), event, dense, 1, 0)
+
+    start = time.perf_counter()
+    segments, events, y, disc, totals = run_segments(_ScalarTransitions(model), advance,
+                                                     t_end=t_end, max_events=max_events)
+    wall = time.perf_counter() - start
+    stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
+             "wall_time": wall}
+    r = build_result(model, segments, events, y, disc, method="exact", tolerances={},
+                     stats=stats, n_samples=n_samples, y_post=totals["y_post"])
+    # The exact peaks (at event points and turning points, see _end_force) rather than the
+    # largest samples.
+    r.peak_force = np.array([peak[0]])
+    r.peak_acceleration = (np.array(peak_a) if brakes else
+                           np.array([-peak[0] / m1, peak[0] / m2]))
+    r.peak_acceleration_g = r.peak_acceleration / model.scene.g
+    return r
+
