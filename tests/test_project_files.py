@@ -3,11 +3,9 @@ CITATION.cff cites the version that is installed, under that license, and the pa
 
 import re
 import tomllib
-from pathlib import Path
 
 import lsc
-
-ROOT = Path(__file__).resolve().parents[1]
+from helpers import ROOT
 
 
 def cff_value(key: str) -> str:
