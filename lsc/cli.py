@@ -19,6 +19,8 @@ Output files are written all at once or not at all, and never over an earlier ru
 
 Each subcommand is a pair of small functions, ``_add_<name>(subparsers)`` that declares it and
 ``_cmd_<name>(args)`` that runs it and returns the exit status; add new ones to ``COMMANDS``.
+What the analyses' subcommands (:mod:`lsc.analysis.cli`) share with these (the scene named on
+the command line, the common options, the JSON and Parquet writers) is in :mod:`lsc.cli_common`.
 """
 
 from __future__ import annotations

@@ -122,6 +122,7 @@ def add_speed_unit_option(p, what: str) -> None:
 
 
 def positive_float(text: str) -> float:
+    """An argparse ``type``: ``text`` as a finite positive number (else a usage error)."""
     try:
         x = float(text)
     except ValueError:
