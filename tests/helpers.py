@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "hard_mode", "HARD", "have_diffrax", "PAPER", "paper_scene", "two_cars",
+__all__ = ["ROOT", "hard_mode", "HARD", "have_diffrax", "PAPER", "paper_scene", "with_changes", "two_cars",
            "chain", "NONLINEAR", "max_rel_error", "subprocess_env", "files_in", "no_space",
            "summary_row"]
 
@@ -61,17 +61,18 @@ PAPER = {
 
 def paper_scene(**changes) -> dict:
     """The paper's two-car scene with dotted-path changes, e.g. ``paper_scene(**{"vehicles.0.speed": 5})``."""
-    s = copy.deepcopy(PAPER)
+    return with_changes(PAPER, **changes)
+
+
+def with_changes(scene: dict, **changes) -> dict:
+    """A copy of the scene dict ``scene`` with each dotted path of ``changes`` set to its value."""
+    s = copy.deepcopy(scene)
     for path, value in changes.items():
-        obj = s
-        keys = path.split(".")
-        for key in keys[:-1]:
-            obj = obj[int(key)] if key.isdigit() else obj[key]
-        last = keys[-1]
-        if last.isdigit():
-            obj[int(last)] = value
-        else:
-            obj[last] = value
+        *head, last = path.split(".")
+        node = s
+        for key in head:
+            node = node[int(key)] if key.isdigit() else node[key]
+        node[int(last) if last.isdigit() else last] = value
     return s
 
 
