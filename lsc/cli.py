@@ -19,14 +19,14 @@ Output files are written all at once or not at all, and never over an earlier ru
 
 Each subcommand is a pair of small functions, ``_add_<name>(subparsers)`` that declares it and
 ``_cmd_<name>(args)`` that runs it and returns the exit status; add new ones to ``COMMANDS``.
+What the analyses' subcommands (:mod:`lsc.analysis.cli`) share with these (the scene named on
+the command line, the common options, the JSON and Parquet writers) is in :mod:`lsc.cli_common`.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
-import json
-import math
 import os
 import sys
 from pathlib import Path
@@ -34,54 +34,18 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .cli_common import (DEFAULT_SCENE, add_overwrite_option, add_solver_options,
+                         add_speed_unit_option, json_writer, parquet_writer, positive_float,
+                         require_parquet, resolve_scene, scene_file, solver_options)
 from .errors import SceneError, SimulationError
 from .outputs import OutputError, OutputExistsError, refuse_existing, write_files
 
 __all__ = ["main", "resolve_scene", "write_outputs", "json_writer"]
 
-DEFAULT_SCENE = "default"
 DEFAULT_OUT = "lsc-out"
 
 
-# --------------------------------------------------------------------------- shared helpers
-def resolve_scene(text: str | None):
-    """The :class:`lsc.Scene` named on the command line: a TOML path, or a packaged scene name
-    (``None`` → the packaged default). A name with a folder separator or a ``.toml`` suffix is
-    always a path. Raises :class:`lsc.SceneError`."""
-    from .scene import Scene
-    return Scene.load(scene_file(text))  # the loader says what is wrong with it
-
-
-def scene_file(text: str | None) -> Path:
-    """The TOML file of the scene named on the command line (see :func:`resolve_scene`); raises
-    :class:`lsc.SceneError` for a name that is neither a file nor a packaged scene."""
-    from . import data
-    if text is None:
-        return data.path(DEFAULT_SCENE)
-    looks_like_path = any(c in text for c in "/\\") or text.lower().endswith(".toml")
-    if not looks_like_path and text in data.names():
-        return data.path(text)
-    if looks_like_path or Path(text).expanduser().exists():
-        return Path(text).expanduser()
-    data.path(text)  # raises: neither a file nor a packaged scene (with a did-you-mean)
-    raise AssertionError("unreachable")
-
-
-def _finite(obj):
-    """JSON-ready: numpy scalars to Python, non-finite floats to ``None`` (strict JSON)."""
-    if isinstance(obj, dict):
-        return {str(k): _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _finite(obj.tolist())
-    if isinstance(obj, np.generic):
-        obj = obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
+# --------------------------------------------------------------------------- lsc run's files
 def write_series_csv(result, file) -> None:
     """``result.series_columns()`` as CSV: one header row (names with units), shortest
     round-trip decimal for every value."""
@@ -91,16 +55,6 @@ def write_series_csv(result, file) -> None:
         w = csv.writer(fh)
         w.writerow(cols.keys())
         w.writerows([repr(float(x)) for x in row] for row in data)
-
-
-def json_writer(obj):
-    """A writer (for :func:`lsc.outputs.write_files`) of ``obj`` as indented strict JSON:
-    numpy values as Python ones, non-finite numbers as ``null``."""
-    def write(file):
-        with open(file, "w", encoding="utf-8") as fh:
-            json.dump(_finite(obj), fh, indent=2, allow_nan=False, ensure_ascii=False)
-            fh.write("\n")
-    return write
 
 
 def run_files(out_dir) -> list[Path]:
@@ -126,67 +80,6 @@ def write_outputs(result, out_dir, plots: bool = True, extra: dict | None = None
     return write_files(writers, overwrite=overwrite, replaces=run_files(out))
 
 
-def require_parquet(wanted: bool = True) -> None:
-    """Raise :class:`lsc.SceneError` where Parquet is ``wanted`` and pyarrow (the ``[frames]``
-    extra) is missing: called before a computation whose output is to be written as Parquet."""
-    if not wanted:
-        return
-    try:
-        import pyarrow  # noqa: F401  (pandas writes Parquet with it)
-    except ModuleNotFoundError:
-        raise SceneError("parquet", "writing Parquet needs pyarrow: pip install 'lsc[frames]'") \
-            from None
-
-
-def parquet_writer(sweep_result):
-    """A writer of ``sweep_result`` as Parquet: one row per member (:meth:`SweepResult.to_dataframe`)."""
-    require_parquet()
-    return lambda file: sweep_result.to_dataframe().to_parquet(file)
-
-
-def add_overwrite_option(p) -> None:
-    """Declare ``--overwrite`` on the subcommand parser ``p`` (for commands that write files)."""
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace the output files of an earlier run (default: refuse, exit 2)")
-
-
-def _solver_options(args) -> dict:
-    """The solver options given on the command line (absent ones are left to the scene)."""
-    names = ("rtol", "atol", "dt", "integrator")
-    return {n: getattr(args, n) for n in names if getattr(args, n, None) is not None}
-
-
-def add_solver_options(p) -> None:
-    """Declare ``--method``, ``--rtol``, ``--atol``, ``--dt`` and ``--integrator`` on the
-    subcommand parser ``p`` (read back by :func:`_solver_options` and ``args.method``)."""
-    from .scene import METHODS
-    p.add_argument("--method", choices=METHODS, help="backend (overrides the scene's [solver])")
-    p.add_argument("--rtol", type=_positive_float, help="relative tolerance (scipy, diffrax)")
-    p.add_argument("--atol", type=_positive_float, help="absolute tolerance (scipy, diffrax)")
-    p.add_argument("--dt", type=_positive_float, help="time step [s] (reference)")
-    p.add_argument("--integrator", help="integrator (scipy: DOP853, RK45, LSODA, Radau, ...)")
-
-
-def add_speed_unit_option(p, what: str) -> None:
-    """Declare ``--speed-unit`` (the display unit of ``what``) on the subcommand parser ``p``;
-    checked by :func:`lsc.display.speed_display` (a :class:`lsc.SceneError` naming the accepted
-    units), not by argparse."""
-    from .display import SPEED_UNITS
-    p.add_argument("--speed-unit", metavar="|".join(SPEED_UNITS),
-                   help=f"print {what} in this unit (default: the scene's); the CSV and JSON "
-                        "files keep the scene's units")
-
-
-def _positive_float(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
-    return x
-
-
 # --------------------------------------------------------------------------- lsc run
 def _add_run(sub) -> None:
     p = sub.add_parser("run", help="simulate one scene: summary, CSV, JSON and plots",
@@ -210,7 +103,7 @@ def _cmd_run(args) -> int:
     scene = resolve_scene(args.scene)
     speed_display(args.speed_unit, scene.units, "--speed-unit")  # before the solve, not after
     refuse_existing(run_files(args.out), args.overwrite)
-    result = solve(scene, method=args.method, **_solver_options(args))
+    result = solve(scene, method=args.method, **solver_options(args))
     print(result.summary(speed_unit=args.speed_unit))
     from .analysis.mer import format_mer
     mer = format_mer(result)
@@ -271,8 +164,8 @@ def _add_sweep(sub) -> None:
                         "contacts.0.unloading.restitution=0.2,0.4,0.6 (repeatable)")
     p.add_argument("--grid", action="store_true", help="sweep the product of the parameters")
     p.add_argument("--method", choices=METHODS, help="backend (default: the scene's)")
-    p.add_argument("--rtol", type=_positive_float, help="relative tolerance (scipy, diffrax)")
-    p.add_argument("--dt", type=_positive_float, help="time step [s] (reference)")
+    p.add_argument("--rtol", type=positive_float, help="relative tolerance (scipy, diffrax)")
+    p.add_argument("--dt", type=positive_float, help="time step [s] (reference)")
     p.add_argument("--metric", default="delta_v", choices=sorted(METRICS),
                    help="the metric to plot (default delta_v)")
     p.add_argument("--index", type=int, default=None,
@@ -389,7 +282,7 @@ def _cmd_report(args) -> int:
     file = scene_file(args.scene)
     resolve_scene(args.scene)  # a bad scene is refused before anything else
     refuse_existing([Path(args.out)], args.overwrite)  # before the solve, not after
-    opts = _solver_options(args)
+    opts = solver_options(args)
     if args.method is not None:
         opts["method"] = args.method
     path = write_report(file, args.out, overwrite=args.overwrite, mc_samples=args.n,

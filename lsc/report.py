@@ -18,152 +18,27 @@ import dataclasses
 import datetime
 import hashlib
 import io
-import json
 import os
 import platform
-import re
-import sys
 from html import escape
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
 from .errors import SceneError, SimulationError
 from .html import _num, _table, result_html, summary_html
+from .provenance import (CANONICAL_FORM, _csv_files, _file_sha256, canonical_scene,  # noqa: F401
+                         scene_hash, to_toml, versions)
 from .scene import METHODS, Damping, Scene
 
 __all__ = ["render_report", "write_report", "scene_hash", "canonical_scene", "accuracy_statement",
            "versions", "to_toml", "CANONICAL_FORM", "MC_SAMPLES", "MC_SEED"]
 
-#: What :func:`scene_hash` hashes, in words (printed in the report).
-CANONICAL_FORM = ("the scene as loaded (its TOML table or dict, before units are applied) "
-                  "serialised as JSON: keys sorted, no spaces (separators \",\" and \":\"), "
-                  "non-ASCII characters kept, encoded as UTF-8 (a Python function in the "
-                  "uncertainty table as its \"module:name\")")
-
 #: Monte Carlo samples and seed of the uncertainty section (defaults of :func:`render_report`).
 MC_SAMPLES = 1000
 MC_SEED = 0
 
-#: Distributions whose versions the report states (those installed; JAX and diffrax when used).
-_DEPENDENCIES = ("numpy", "scipy", "pint", "matplotlib", "pandas")
-_JAX = ("jax", "jaxlib", "diffrax", "equinox")
-
 _MODEL = "Simulation Model for Low-Speed Bumper-to-Bumper Crashes"
-
-
-# --------------------------------------------------------------------------- provenance
-def canonical_scene(scene) -> bytes:
-    """The bytes :func:`scene_hash` hashes: ``scene.source`` as canonical JSON (see
-    :data:`CANONICAL_FORM`). ``scene``: an :class:`lsc.Scene`, a dict or a TOML path."""
-    sc = Scene.load(scene)
-    if not sc.source:
-        raise SceneError("", "this scene has no source (build it with lsc.Scene.load): it cannot "
-                             "be reported as given")
-    return json.dumps(sc.source, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
-                      default=_json_default).encode("utf-8")
-
-
-def _json_default(value) -> str:
-    """A value JSON has no type for, as text that is the same in every run: a date or time as
-    ISO 8601, a Python function (an ``[uncertainty]`` spec) as ``"module:name"``."""
-    if isinstance(value, (datetime.date, datetime.time)):
-        return value.isoformat()
-    if callable(value):
-        return f"{getattr(value, '__module__', '?')}:{getattr(value, '__qualname__', '?')}"
-    return str(value)
-
-
-def scene_hash(scene) -> str:
-    """SHA-256 (hex) of :func:`canonical_scene`: the same for the same scene whether it is
-    given as a TOML file, its dict or an :class:`lsc.Scene`; comments and layout do not count."""
-    return hashlib.sha256(canonical_scene(scene)).hexdigest()
-
-
-def _file_sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _csv_files(scene: Scene) -> list[tuple[str, Path]]:
-    """``(scene path, file)`` of every CSV file the scene reads (``csv = "..."`` keys)."""
-    found = []
-
-    def walk(node, where):
-        if isinstance(node, dict):
-            for key, sub in node.items():
-                if key == "csv" and isinstance(sub, str):
-                    file = Path(sub).expanduser()
-                    if not file.is_absolute() and scene.base_dir is not None:
-                        file = Path(scene.base_dir) / file
-                    found.append((f"{where}.csv".lstrip("."), file))
-                else:
-                    walk(sub, f"{where}.{key}")
-        elif isinstance(node, list):
-            for i, sub in enumerate(node):
-                walk(sub, f"{where}[{i}]")
-
-    walk(scene.source, "")
-    return found
-
-
-_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
-
-
-def _toml_key(key) -> str:
-    key = str(key)
-    return key if _BARE_KEY.fullmatch(key) else json.dumps(key, ensure_ascii=False)
-
-
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)  # inf and nan are spelled as TOML spells them
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}"
-                                for k, v in value.items()) + " }"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, (datetime.date, datetime.time)):
-        return value.isoformat()
-    return json.dumps(_json_default(value), ensure_ascii=False)
-
-
-def to_toml(source: dict) -> str:
-    """A scene's source table as TOML text (top-level keys, then each table and array of
-    tables; deeper tables inline): what the scene file says, without its comments."""
-    def is_tables(v):
-        return isinstance(v, list) and v and all(isinstance(x, dict) for x in v)
-
-    lines = [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in source.items()
-             if not isinstance(v, dict) and not is_tables(v)]
-    for k, v in source.items():
-        if isinstance(v, dict):
-            lines += ["", f"[{_toml_key(k)}]"] + [f"{_toml_key(a)} = {_toml_value(b)}"
-                                                   for a, b in v.items()]
-        elif is_tables(v):
-            for item in v:
-                lines += ["", f"[[{_toml_key(k)}]]"] + [f"{_toml_key(a)} = {_toml_value(b)}"
-                                                         for a, b in item.items()]
-    return "\n".join(lines) + "\n"
-
-
-def versions(method: str = "") -> dict[str, str]:
-    """``name → version`` of Python, ``lsc`` and its dependencies (JAX and diffrax too when
-    ``method`` is diffrax or they are loaded)."""
-    from . import __version__
-    out = {"python": platform.python_version(), "lsc": __version__}
-    names = list(_DEPENDENCIES)
-    if method.startswith("diffrax") or "jax" in sys.modules:
-        names += _JAX
-    for name in names:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            if name in _DEPENDENCIES:
-                out[name] = "not installed"
-    return out
 
 
 # --------------------------------------------------------------------------- accuracy

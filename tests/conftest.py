@@ -1,11 +1,13 @@
-"""Shared scene builders for the tests (plain dicts, in the scene format of DESIGN.md §4), the
-``--hard`` option and the project's hypothesis profile."""
+"""The ``--hard`` option, the project's hypothesis profiles and the ``paper`` fixture. The shared
+helpers themselves (scene builders, the hard-mode switch, ...) are in tests/helpers.py."""
 
 import copy
 import os
 
 import pytest
 from hypothesis import HealthCheck, settings
+
+from helpers import PAPER, hard_mode, paper_scene, two_cars  # noqa: F401  (``from conftest import``)
 
 # Hypothesis: a case's run time depends on its numbers (a stiff contact takes more steps), so no
 # per-example deadline and no too-slow health check; tests that need others say so themselves.
@@ -34,47 +36,11 @@ def pytest_configure(config):
     # set before the test modules are imported: their hypothesis settings read it
     if config.getoption("--hard"):
         os.environ["LSC_HARD"] = "1"
-    if os.environ.get("LSC_HARD", "").strip().lower() not in ("", "0", "false", "no"):
+    if hard_mode():
         settings.load_profile("lsc-hard")
-
-
-PAPER = {
-    "name": "paper",
-    "units": "US",
-    "g": "32.2 ft/s^2",
-    "vehicles": [
-        {"name": "bullet", "weight": 3500, "speed": 10},
-        {"name": "target", "weight": 3500, "speed": 0},
-    ],
-    "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}}],
-}
-
-
-def paper_scene(**changes):
-    """The paper's two-car scene with dotted-path changes, e.g. ``paper_scene(**{"vehicles.0.speed": 5})``."""
-    s = copy.deepcopy(PAPER)
-    for path, value in changes.items():
-        obj = s
-        keys = path.split(".")
-        for key in keys[:-1]:
-            obj = obj[int(key)] if key.isdigit() else obj[key]
-        last = keys[-1]
-        if last.isdigit():
-            obj[int(last)] = value
-        else:
-            obj[last] = value
-    return s
-
-
-def two_cars(m1, m2, v1, v2, loading, unloading, gap=0.0, units="SI"):
-    """A two-vehicle scene dict with masses (not weights)."""
-    return {
-        "units": units,
-        "vehicles": [{"mass": m1, "speed": v1}, {"mass": m2, "speed": v2}],
-        "contacts": [{"loading": loading, "unloading": unloading, "gap": gap}],
-    }
 
 
 @pytest.fixture
 def paper():
+    """The paper's two-car scene (a fresh copy: a test may change it)."""
     return copy.deepcopy(PAPER)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import lsc
-from conftest import paper_scene
+from helpers import paper_scene
 from lsc.analysis import max_closing_speed, peak_force
 from lsc.curves import Curve
 

@@ -5,6 +5,7 @@ import json
 import pytest
 
 import lsc.cli
+from helpers import files_in as _files, no_space as _no_space
 
 TABLE3 = """
 name = "Table 3"
@@ -155,14 +156,6 @@ def test_run_prints_the_mer_cross_check(main, tmp_path, capsys):
 
 
 # --------------------------------------------------------------------------- output files
-def _files(folder):
-    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
-
-
-def _no_space(*args, **kwargs):
-    raise OSError(28, "No space left on device")
-
-
 def test_mc_outputs_all_or_none_and_never_over_an_earlier_run(main, tmp_path, capsys,
                                                               monkeypatch):
     from lsc.analysis.uncertainty import MonteCarlo

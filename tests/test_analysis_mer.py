@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import lsc
-from conftest import paper_scene, two_cars
+from helpers import paper_scene, two_cars
 from lsc.analysis import format_mer, mer, mer_for
 
 CASES = [  # m1, m2, v1, v2, k, e   (SI)

@@ -2,13 +2,11 @@
 against the closed form (linear scenes) and against finite differences of the exact backends
 (tables, damping laws, brakes, chains)."""
 
-import os
-
 import numpy as np
 import pytest
 
 import lsc
-from conftest import paper_scene, two_cars
+from helpers import HARD, NONLINEAR, paper_scene, two_cars
 from lsc.analysis import default_params, sensitivity
 from lsc.curves import Curve
 
@@ -16,12 +14,10 @@ pytest.importorskip("diffrax")
 
 from lsc.solvers import diffrax_ode as dx  # noqa: E402
 
-HARD = bool(os.environ.get("LSC_HARD"))
 ALL = ("delta_v", "peak_acceleration", "duration", "peak_force", "max_deformation")
 
 # measured-like (SI: m, N): a soft start, a plateau, a dip (a failing bar), then a stiff rise
-TABLE = [[0, 0], [0.02, 3000], [0.1, 25000], [0.15, 40000], [0.2, 40000], [0.25, 35000],
-         [0.4, 120000]]
+TABLE = NONLINEAR["table"]
 
 
 def table_scene(v1=6.0, e=0.3, m1=1500.0, m2=1100.0):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lsc
-from conftest import paper_scene
+from helpers import paper_scene
 from lsc.analysis import monte_carlo, sample
 
 G = 32.2

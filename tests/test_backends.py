@@ -7,14 +7,9 @@ import pytest
 
 import lsc
 from lsc.solvers import closed_form
-from conftest import two_cars
+from helpers import NONLINEAR, max_rel_error as _rel, two_cars
 
 GRID = list(itertools.product([0.1, 1.0, 10.0], [0.0, 0.4, 1.0], [1e3, 2.4e4, 1e6]))
-
-
-def _rel(a, b):
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300)))
 
 
 @pytest.mark.parametrize("ratio, e, k", GRID)
@@ -45,11 +40,6 @@ def test_closed_form_against_hand_numbers():
     assert m["duration"] == pytest.approx(np.pi / (2 * w) * 1.4, rel=1e-15)
     assert m["delta_v"] == pytest.approx([-7.0, 7.0], rel=1e-15)
     assert m["permanent_deformation"] == pytest.approx(10 / w * (1 - 0.16), rel=1e-15)
-
-
-# measured-like: a soft start, a plateau, a dip (failing), then a stiff rise (SI: m, N)
-NONLINEAR = {"table": [[0, 0], [0.02, 3000], [0.1, 25000], [0.15, 40000], [0.2, 40000],
-                       [0.25, 35000], [0.4, 120000]]}
 
 
 @pytest.mark.parametrize("e", [0.0, 0.1, 0.5, 0.9, 1.0])

@@ -7,7 +7,6 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +14,9 @@ import pytest
 import lsc
 import lsc.plots
 from lsc.cli import main
+from helpers import (files_in as _files, no_space as _no_space, subprocess_env as _env,
+                     summary_row as _row)
 
-ROOT = Path(__file__).resolve().parents[1]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 # The packaged default scene, by hand: the paper's study 1 at e = 0.4 (US units, g = 32.2).
@@ -37,10 +37,6 @@ def default_run(tmp_path_factory):
     with contextlib.redirect_stdout(so), contextlib.redirect_stderr(se):
         rc = main(["run", "--out", str(out)])
     return rc, so.getvalue(), se.getvalue(), out
-
-
-def _row(summary: str, name: str) -> list[str]:
-    return next(line.split() for line in summary.splitlines() if line.startswith(name + " "))
 
 
 def test_run_default_exits_0_and_prints_delta_v(default_run):
@@ -209,8 +205,7 @@ def test_packaged_scenes_match_the_paper():
 
 
 def test_python_dash_m_lsc(tmp_path):
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    env = _env()
     p = subprocess.run([sys.executable, "-m", "lsc", "run", "--no-plots"], cwd=tmp_path,
                        env=env, capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
@@ -223,11 +218,6 @@ def test_python_dash_m_lsc(tmp_path):
 
 
 # --------------------------------------------------------------------------- output files
-def _files(folder: Path) -> dict:
-    """Every entry of ``folder`` (hidden ones too) → its bytes."""
-    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
-
-
 def _exists_error(*paths) -> str:
     return (f"lsc: error: {', '.join(map(str, paths))} already exist"
             f"{'s' if len(paths) == 1 else ''} (the results of an earlier run): pass "
@@ -250,10 +240,6 @@ def test_a_second_run_is_refused_before_solving_and_overwrite_replaces(tmp_path,
     assert js0["input"] == "default" and js["input"] == "table3"
     assert js["metrics"]["peak_force"] != js0["metrics"]["peak_force"]
     assert (out / "series.csv").read_bytes() != first["series.csv"]
-
-
-def _no_space(*args, **kwargs):
-    raise OSError(28, "No space left on device")
 
 
 def test_a_failing_figure_leaves_the_earlier_run_intact(tmp_path, capsys, monkeypatch):
@@ -311,11 +297,6 @@ def test_sweep_outputs_all_or_none_and_never_over_an_earlier_sweep(tmp_path, cap
 
 
 # --------------------------------------------------------------------------- lsc ... | head
-def _env() -> dict:
-    return dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
-
-
 @pytest.mark.parametrize("unbuffered", ["1", ""], ids=["unbuffered", "buffered"])
 @pytest.mark.parametrize("args", [["run", "--no-plots", "--out", "o"], ["scenes"],
                                   ["bound", "table3", "--failure-force", "5000 lbf"]],

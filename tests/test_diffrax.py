@@ -14,19 +14,9 @@ from lsc.model import HybridModel  # noqa: E402
 from lsc.scene import Scene  # noqa: E402
 from lsc.solvers import closed_form, scipy_ode  # noqa: E402
 from lsc.solvers.diffrax_ode import _impl as dx  # noqa: E402
-from conftest import two_cars  # noqa: E402
+from helpers import NONLINEAR, max_rel_error as _rel, two_cars  # noqa: E402
 
 METRICS = ("delta_v", "duration", "peak_force", "max_deformation")
-
-# measured-like: a soft start, a plateau, a dip (failing), then a stiff rise (SI: m, N)
-NONLINEAR = {"table": [[0, 0], [0.02, 3000], [0.1, 25000], [0.15, 40000], [0.2, 40000],
-                       [0.25, 35000], [0.4, 120000]]}
-
-
-def _rel(a, b):
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300)))
-
 
 def _model(scene):
     return HybridModel(Scene.load(scene))

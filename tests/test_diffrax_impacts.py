@@ -8,7 +8,7 @@ pytest.importorskip("diffrax")
 
 import lsc  # noqa: E402
 from lsc.result import METRICS  # noqa: E402
-from conftest import paper_scene  # noqa: E402
+from helpers import paper_scene  # noqa: E402
 
 # a struck car braking to a stop before the bullet (braked too) reaches it across a 3 ft gap
 BRAKED = {"units": "US", "g": "32.2 ft/s^2",

@@ -13,7 +13,7 @@ import lsc
 from lsc.analysis.bounds import max_closing_speed
 from lsc.cli import main
 
-from conftest import paper_scene
+from helpers import paper_scene, summary_row as _row
 from test_analysis_bounds import table3_scene
 from test_impacts import RATTLE
 
@@ -21,10 +21,6 @@ from test_impacts import RATTLE
 FT_S_TO_MPH = Fraction(3600, 5280)              # 10 ft/s = 6.8181... mph
 M_S_TO_KMH = Fraction(36, 10)
 FT_S_TO_KMH = Fraction(3048, 10000) * M_S_TO_KMH   # 1.09728
-
-
-def _row(text: str, name: str) -> list[str]:
-    return next(line.split() for line in text.splitlines() if line.startswith(name + " "))
 
 
 @pytest.fixture(scope="module")

@@ -6,6 +6,7 @@ import pytest
 import lsc
 from lsc.contact import brach_restitution, hunt_crossley_a, kelvin_restitution
 from lsc.model import HybridModel
+from helpers import chain as vehicle_chain, max_rel_error
 
 M1, M2 = 1400.0, 1000.0
 MU = M1 * M2 / (M1 + M2)
@@ -241,7 +242,7 @@ def post_failure_closed_form(v0, m1=M1, m2=M2, e=E_PF):
 
 def _close(a, b, tol, what):
     a, b = np.atleast_1d(np.asarray(a, float)), np.atleast_1d(np.asarray(b, float))
-    err = np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300))
+    err = max_rel_error(a, b)
     assert err <= tol, f"{what}: {a} vs {b} (rel {err:.2e})"
 
 
@@ -464,11 +465,11 @@ def test_spliced_curve_methods_on_a_step():
 
 # ------------------------------------------------------------------ chains
 def chain(gap2=0.0, e=1.0, v0=2.0, masses=(1200.0, 1200.0, 1200.0), k=1.0e5):
-    return {"units": "SI",
-            "vehicles": [{"mass": m, "speed": s} for m, s in zip(masses, (v0, 0.0, 0.0))],
-            "contacts": [{"loading": {"stiffness": k}, "unloading": {"restitution": e}},
-                         {"loading": {"stiffness": k}, "unloading": {"restitution": e},
-                          "gap": gap2}]}
+    """Three cars, the rear one at ``v0``; the second contact open by ``gap2``."""
+    return vehicle_chain(masses, (v0, 0.0, 0.0),
+                         [{"loading": {"stiffness": k}, "unloading": {"restitution": e}},
+                          {"loading": {"stiffness": k}, "unloading": {"restitution": e},
+                           "gap": gap2}])
 
 
 def test_three_car_chain_momentum_and_event_order():

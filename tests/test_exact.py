@@ -15,7 +15,7 @@ from lsc.model import HybridModel
 from lsc.scene import (Contact, Hysteresis, Restitution, Scene, UnloadingStiffness,
                        UnloadingTable, Vehicle)
 from lsc.solvers import closed_form, exact, pick, scipy_ode
-from conftest import two_cars
+from helpers import two_cars
 
 # (what each metric is compared against: a scale of its own kind)
 SCALES = {"delta_v": "v", "v_final": "v", "peak_acceleration": "a", "duration": "t",

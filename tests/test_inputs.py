@@ -4,7 +4,6 @@ the scenes next to the limits still solve."""
 
 from __future__ import annotations
 
-import copy
 import os
 
 import numpy as np
@@ -13,6 +12,7 @@ import pytest
 import lsc
 from lsc.errors import SceneError
 from lsc.scene import GAP_RATIO, MAX_CSV_BYTES, Scene
+from helpers import with_changes
 
 #: The paper's scene (US units, g = 32.2 ft/s²): ΔV = ∓7 ft/s in 0.1046 s.
 PAPER = {"units": "US", "g": "32.2 ft/s^2",
@@ -26,14 +26,7 @@ RANGE = ("is outside the range lsc computes with: a magnitude from 1e-100 to 1e+
 
 def scene(**changes) -> dict:
     """The paper scene with dotted-path changes (``scene(**{"vehicles.0.speed": 5})``)."""
-    s = copy.deepcopy(PAPER)
-    for path, value in changes.items():
-        *head, last = path.split(".")
-        node = s
-        for key in head:
-            node = node[int(key)] if key.isdigit() else node[key]
-        node[int(last) if last.isdigit() else last] = value
-    return s
+    return with_changes(PAPER, **changes)
 
 
 def refused(obj, path: str, **solve_options) -> str:

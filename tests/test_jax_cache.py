@@ -2,7 +2,6 @@
 off, and that a second ``lsc run --method diffrax`` process loads what the first compiled."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -12,8 +11,7 @@ import pytest
 pytest.importorskip("diffrax")
 
 from lsc.solvers import jax_setup  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
+from helpers import subprocess_env  # noqa: E402
 
 
 @pytest.mark.parametrize("value", ["0", "", "off", " OFF "])
@@ -36,8 +34,7 @@ def test_default_folder_is_in_the_users_cache(monkeypatch, tmp_path):
 
 
 def _run_diffrax(out: Path, cache: Path) -> dict:
-    env = {**os.environ, "LSC_JAX_CACHE": str(cache),
-           "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    env = subprocess_env(LSC_JAX_CACHE=str(cache))
     p = subprocess.run([sys.executable, "-m", "lsc", "run", "--method", "diffrax", "--no-plots",
                         "--out", str(out)], env=env, capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr

@@ -3,11 +3,9 @@ CITATION.cff cites the version that is installed, under that license, and the pa
 
 import re
 import tomllib
-from pathlib import Path
 
 import lsc
-
-ROOT = Path(__file__).resolve().parents[1]
+from helpers import ROOT
 
 
 def cff_value(key: str) -> str:
@@ -27,3 +25,17 @@ def test_citation_cites_this_version_under_the_projects_license():
     assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License\n")
     text = (ROOT / "CITATION.cff").read_text(encoding="utf-8")
     assert 'title: "Simulation Model for Low-Speed Bumper-to-Bumper Crashes"' in text
+
+
+#: Modules over the limit that other branches of issue 12 split (scene and contact laws, the
+#: exact and diffrax backends, sweep, sensitivity, the SciPy backend); empty it once they are in.
+SPLIT_ELSEWHERE = {"lsc/scene.py", "lsc/contact.py", "lsc/sweep.py", "lsc/solvers/exact.py",
+                   "lsc/solvers/diffrax_ode/_impl.py", "lsc/solvers/scipy_ode.py",
+                   "lsc/analysis/sensitivity.py"}
+
+
+def test_no_module_is_over_500_lines():
+    """Files along their seams (issue 12): a module over about 500 lines holds several concerns."""
+    long = {f"{p.relative_to(ROOT).as_posix()}": n for p in sorted((ROOT / "lsc").rglob("*.py"))
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 500}
+    assert set(long) <= SPLIT_ELSEWHERE, {p: n for p, n in long.items() if p not in SPLIT_ELSEWHERE}

@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from lsc.errors import SceneError
 from lsc.scene import (STANDARD_G, Brake, Failure, Hysteresis, Restitution, Scene, UnloadingStiffness,
                        UnloadingTable, load_scene)
+from helpers import HARD, paper_scene
 
 FT = 0.3048          # m per ft
 LBF = 4.4482216152605  # N per lbf
@@ -26,14 +27,7 @@ IN = 1.0 / 12.0      # ft per in
 
 def paper() -> dict:
     """Paper, parametric study 1 (US units, g = 32.2 ft/s^2)."""
-    return {
-        "name": "Paper, study 1",
-        "units": "US",
-        "g": "32.2 ft/s^2",
-        "vehicles": [{"name": "bullet", "weight": 3500, "speed": 10},
-                     {"name": "target", "weight": 3500, "speed": 0}],
-        "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}}],
-    }
+    return paper_scene(name="Paper, study 1")
 
 
 def si() -> dict:
@@ -817,8 +811,7 @@ def fuzz_dir(tmp_path_factory):
 
 #: Loader fuzzing: 10,000 examples by default, 200,000 in hard mode (``pytest --hard`` /
 #: LSC_HARD=1); ``LSC_FUZZ_EXAMPLES`` sets the count outright.
-_HARD = os.environ.get("LSC_HARD", "").strip().lower() not in ("", "0", "false", "no")
-FUZZ_EXAMPLES = int(os.environ.get("LSC_FUZZ_EXAMPLES") or (200_000 if _HARD else 10_000))
+FUZZ_EXAMPLES = int(os.environ.get("LSC_FUZZ_EXAMPLES") or (200_000 if HARD else 10_000))
 
 
 def _mutate(scene: dict, data) -> None:

@@ -4,7 +4,6 @@ every packaged and docs scene validates, and the malformed scenes it can see fai
 import json
 import re
 import tomllib
-from pathlib import Path
 
 import pytest
 
@@ -14,8 +13,7 @@ jsonschema = pytest.importorskip("jsonschema", reason="jsonschema (the [test] ex
 from lsc import Scene, SceneError, cli, data  # noqa: E402
 from lsc.schema import scene_schema, shipped_schema  # noqa: E402
 from test_scene import BAD, S  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
+from helpers import ROOT  # noqa: E402
 VALIDATOR = jsonschema.Draft202012Validator(scene_schema())
 
 

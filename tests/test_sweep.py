@@ -4,10 +4,7 @@ import numpy as np
 import pytest
 
 import lsc
-from conftest import PAPER, two_cars
-
-NONLINEAR = {"table": [[0, 0], [0.02, 3000], [0.1, 25000], [0.15, 40000], [0.2, 40000],
-                       [0.25, 35000], [0.4, 120000]]}
+from helpers import NONLINEAR, PAPER, two_cars
 
 
 def _members(n, seed=1):

@@ -29,8 +29,8 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from ..cli import (add_overwrite_option, add_speed_unit_option, json_writer, parquet_writer,
-                   require_parquet)
+from ..cli_common import (add_overwrite_option, add_speed_unit_option, json_writer, parquet_writer,
+                          require_parquet, resolve_scene)
 from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
@@ -74,7 +74,6 @@ def add_bound(sub) -> None:
 
 def cmd_bound(args) -> int:
     """Run ``lsc bound``: print the bound's summary (and write JSON)."""
-    from ..cli import resolve_scene
     from ..display import speed_display
     from .bounds import max_closing_speed
     scene = resolve_scene(args.scene)
@@ -94,7 +93,6 @@ def load_with_uncertainty(text: str, uncertainty: str | None = None):
     """``(scene, distributions)`` from a scene TOML with an ``[uncertainty]`` table (or a packaged
     scene name), plus an optional separate TOML holding the table (at its top level or under
     ``[uncertainty]``; it extends / overrides the scene's)."""
-    from ..cli import resolve_scene
     from ..scene import Scene
     file = Path(text).expanduser()
     dists: dict = {}
@@ -322,7 +320,6 @@ def _sensitivity_options(args) -> dict:
 
 def cmd_sensitivity(args) -> int:
     """Run ``lsc sensitivity``: print the table (and write a tornado chart / JSON)."""
-    from ..cli import resolve_scene
     from .sensitivity import sensitivity
     if args.global_:
         return _cmd_global_sensitivity(args)
@@ -428,7 +425,6 @@ def add_compare(sub) -> None:
 def cmd_compare(args) -> int:
     """Run ``lsc compare``: print the comparison (and write CSV, JSON and the overlay figure)."""
     from ..api import solve
-    from ..cli import resolve_scene
     from .compare import compare
     scene = resolve_scene(args.scene)
     out = Path(args.out) if args.out else None
@@ -507,7 +503,6 @@ def add_fit(sub) -> None:
 
 def cmd_fit(args) -> int:
     """Run ``lsc fit``: print the fit (and write the fitted scene, JSON and the overlay)."""
-    from ..cli import resolve_scene
     from .fit import fit
     scene = resolve_scene(args.scene)
     initial = dict(_path_value(t) for t in args.initial)

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -46,7 +45,9 @@ from ..api import solve
 from ..errors import SceneError, SimulationError
 from ..outputs import write_file
 from ..scene import Scene
+from ..toml_text import to_toml
 from ._common import path_kind, read_path
+from ._fit_errors import covariance
 from .compare import _first_contact, _rate
 
 __all__ = ["fit", "FitResult", "scene_toml", "sampled_channels", "ERRORS"]
@@ -56,9 +57,6 @@ ERRORS = ("autocorrelated", "independent")
 
 #: Fitted channel roles: prefix → the result series and kind it is compared with.
 _ROLES = {"accel_": "acceleration", "force": "force"}
-#: Smallest ratio of the Jacobian's singular values for parameters the channels can tell apart
-#: (finite differences are good to about 1e-8).
-_RANK_TOLERANCE = 1e-7
 #: Value of a path the scene may leave out (the loader's default).
 _DEFAULTS = {"scale": 1.0}
 
@@ -319,7 +317,7 @@ class _Problem:
         r = np.concatenate([(sim[k] - self.measured[k]) * self.weights[k] for k in self.roles])
         ssr = float(r @ r)
         dof = r.size - len(self.params)
-        cov, corr, lags = _covariance(J, r, [self.t.size] * len(self.roles), self.errors, self.params)
+        cov, corr, lags = covariance(J, r, [self.t.size] * len(self.roles), self.errors, self.params)
         se = np.sqrt(np.diag(cov))
         ratings = {k: _rate(self.t, self.measured[k], sim[k]) for k in self.roles}
         units = {q: _unit(sc, q) for q in self.params}
@@ -434,52 +432,6 @@ def sampled_channels(result, t, *, source: str = "simulation"):
     return Channels(t, out, source)
 
 
-def _covariance(J: np.ndarray, r: np.ndarray, sizes, errors: str, params):
-    """``(cov, corr, lags)`` of the parameters from the Jacobian ``J`` (n, P) of the weighted
-    residuals ``r`` (n,), stacked by channel (``sizes``). ``"independent"``: ``σ² (JᵀJ)⁻¹``,
-    ``σ² = SSR/(n - P)``; ``"autocorrelated"``: the Newey–West sandwich ``(JᵀJ)⁻¹ S (JᵀJ)⁻¹``,
-    ``S`` the Bartlett-weighted sum of the lagged products of ``J_t r_t`` within each channel,
-    over ``lags`` (per channel: twice the lag where the residuals' autocorrelation first turns
-    negative), times ``n/(n - P)``."""
-    n, P = J.shape
-    sv = np.linalg.svd(J, compute_uv=False)
-    if not sv[-1] > _RANK_TOLERANCE * sv[0]:
-        raise SceneError("params", f"the channels cannot tell the parameters {list(params)} apart "
-                                   f"(their Jacobian columns are dependent): fit fewer parameters")
-    inv = np.linalg.inv(J.T @ J)
-    if errors == "independent":
-        cov, lags = (r @ r) / (n - P) * inv, [0] * len(sizes)
-    else:
-        meat, lags, start = np.zeros((P, P)), [], 0
-        for size in sizes:
-            part, lag = _lagged_products(J[start:start + size], r[start:start + size])
-            meat += part
-            lags.append(lag)
-            start += size
-        cov = inv @ meat @ inv * n / (n - P)
-    se = np.sqrt(np.diag(cov))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = np.where(np.outer(se, se) > 0, cov / np.outer(se, se), np.eye(P))
-    return cov, corr, lags
-
-
-def _lagged_products(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, int]:
-    """One channel's Newey–West sum ``Σ_l w_l (Γ_l + Γ_lᵀ)`` (Bartlett ``w_l = 1 - l/(L+1)``) and
-    its bandwidth ``L``."""
-    g = J * r[:, None]
-    meat = g.T @ g
-    power = float(r @ r)
-    if power == 0.0:
-        return meat, 0
-    rho = np.correlate(r, r, "full")[r.size - 1:] / power
-    negative = np.nonzero(rho < 0)[0]
-    lag = min(r.size // 4, 2 * int(negative[0] if negative.size else r.size))
-    for l in range(1, lag + 1):
-        G = g[l:].T @ g[:-l]
-        meat += (1.0 - l / (lag + 1)) * (G + G.T)
-    return meat, lag
-
-
 def _unit(scene: Scene, path: str) -> str:
     kind = path_kind(path)
     return scene.unit(kind) if kind and kind != "dimensionless" else ""
@@ -487,56 +439,15 @@ def _unit(scene: Scene, path: str) -> str:
 
 # ---------------------------------------------------------------------------------- TOML
 
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-
-
 def scene_toml(scene, path=None, *, overwrite: bool = False) -> str:
     """A scene as TOML text that :meth:`lsc.Scene.load` reads back to the same scene (written to
     ``path`` too, if given). Relative CSV paths are made absolute (the scene's ``base_dir``), so the
     file can be written anywhere."""
     sc = Scene.load(scene)
-    src = _absolute_csv(sc.source, sc.base_dir)
-    lines = [f"{_key(k)} = {_value(v)}" for k, v in src.items() if not _is_table(v) and not _is_tables(v)]
-    for k, v in src.items():
-        if _is_table(v):
-            lines += ["", f"[{_key(k)}]"] + [f"{_key(a)} = {_value(b)}" for a, b in v.items()]
-        elif _is_tables(v):
-            for item in v:
-                lines += ["", f"[[{_key(k)}]]"] + [f"{_key(a)} = {_value(b)}" for a, b in item.items()]
-    text = "\n".join(lines) + "\n"
+    text = to_toml(_absolute_csv(sc.source, sc.base_dir))
     if path is not None:
         write_file(path, lambda f: Path(f).write_text(text, encoding="utf-8"), overwrite=overwrite)
     return text
-
-
-def _is_table(v) -> bool:
-    return isinstance(v, dict)
-
-
-def _is_tables(v) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def _key(k) -> str:
-    k = str(k)
-    return k if _BARE.match(k) else json.dumps(k)
-
-
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        v = float(v)
-        return repr(v) if math.isfinite(v) else ("nan" if v != v else ("inf" if v > 0 else "-inf"))
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_key(a)} = {_value(b)}" for a, b in v.items()) + " }"
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    raise SceneError("", f"cannot write {type(v).__name__} {v!r} as TOML")
 
 
 def _absolute_csv(node, base_dir):

@@ -13,16 +13,18 @@ Every check is relative to a stated scale so that a failure says how far off a n
 
 from __future__ import annotations
 
+import functools
 import os
 
 import numpy as np
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
+import helpers
 import lsc
 
 #: Hard mode: ``LSC_HARD=1`` in the environment, or ``pytest --hard`` (tests/conftest.py sets it).
-HARD = os.environ.get("LSC_HARD", "").strip().lower() not in ("", "0", "false", "no")
+HARD = helpers.hard_mode()
 
 #: Rounding: float64 machine epsilon.
 EPS = float(np.finfo(float).eps)
@@ -60,13 +62,7 @@ def hard_settings(default: int, hard: int | None = None, **kw):
                     **kw)
 
 
-def have_diffrax() -> bool:
-    try:
-        import diffrax  # noqa: F401
-        import jax  # noqa: F401
-    except ImportError:
-        return False
-    return True
+have_diffrax = helpers.have_diffrax
 
 
 # ----------------------------------------------------------------------------- strategies
@@ -91,18 +87,9 @@ front_speeds = st.one_of(st.just(0.0), st.floats(-30.0, 60.0))
 
 
 # ----------------------------------------------------------------------------- scenes
-def two_cars(m1, m2, v1, v2, loading, unloading, gap=0.0, **extra):
-    """A two-vehicle US scene with masses [slug], speeds [ft/s] and one hysteresis contact."""
-    contact = {"loading": loading, "unloading": unloading, "gap": gap}
-    contact.update(extra)
-    return {"units": "US", "vehicles": [{"mass": m1, "speed": v1}, {"mass": m2, "speed": v2}],
-            "contacts": [contact]}
-
-
-def chain(ms, vs, contacts):
-    """A chain of vehicles (masses [slug], speeds [ft/s], rear to front) and its contacts."""
-    return {"units": "US", "vehicles": [{"mass": m, "speed": v} for m, v in zip(ms, vs)],
-            "contacts": list(contacts)}
+#: The shared builders (tests/helpers.py) in US units: masses [slug], speeds [ft/s].
+two_cars = functools.partial(helpers.two_cars, units="US")
+chain = functools.partial(helpers.chain, units="US")
 
 
 # ----------------------------------------------------------------------------- checks

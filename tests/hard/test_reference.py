@@ -154,7 +154,7 @@ def test_dt_too_small_for_memory_is_refused_up_front():
 
 
 def test_reference_max_steps_beyond_what_fits_in_memory_is_refused_not_capped():
-    from tests.conftest import paper_scene
+    from helpers import paper_scene
     """A max_steps above MAX_STEPS was silently lowered to it; now it is refused, naming it."""
     from lsc.solvers.reference import MAX_STEPS
     with pytest.raises(lsc.SceneError) as e:
