@@ -20,17 +20,71 @@ failures'. Events are numbered in the same order; event ``i`` is event ``which``
 
 from __future__ import annotations
 
+from typing import Any, NamedTuple
+
 import numpy as np
 
 from .contact import STATUS, make_law
 from .effects import BrakeEffect, FailureEffect
 from .errors import SimulationError
 
-__all__ = ["HybridModel", "OVER_TOL"]
+__all__ = ["HybridModel", "Frame", "OVER_TOL", "MAX_ANGLE", "EVENT_UNITS"]
 
 #: Closing rates at most this fraction of the speed scale are rounding
 #: (:meth:`HybridModel.contacts_apart`).
 OVER_TOL = 1e-12
+
+#: Longest integrator step, in radians of the fastest natural oscillation of the frozen contacts
+#: (:meth:`HybridModel.max_step`).
+MAX_ANGLE = 0.5
+
+#: The unit of each kind of event function (:meth:`HybridModel.event_scales`); a kind not named
+#: here is a length (and a Kelvin law's ``separate``, ``k D + c Ḋ``, is a force).
+EVENT_UNITS = {"vmax": "velocity", "turn": "velocity", "recompress": "velocity",
+               "stop": "velocity", "break_forward": "force", "break_backward": "force",
+               "failure": "force"}
+
+
+def _event_unit(part, kind: str) -> str:
+    """The unit (``length``, ``velocity`` or ``force``) of event ``kind`` of ``part``."""
+    if kind == "separate" and getattr(part, "name", "") == "kelvin":
+        return "force"
+    return EVENT_UNITS.get(kind, "length")
+
+
+class Frame(NamedTuple):
+    """The moving frame one segment is integrated in (:meth:`HybridModel.frame`): each vehicle's
+    position from where it was at the segment start ``t0`` [s] (``x0`` (N,) [length]), less the
+    motion of the frame ``V (t - t0)`` (``V`` [velocity]), and velocities less ``V``; contact
+    ``k``'s gap becomes ``-D0_k`` (:meth:`params`), so that its deformation is
+    ``D0_k + (u_k - u_{k+1})``, resolved to the ulps of ``D`` itself, not of the positions. A
+    pytree (JAX traces it as three arrays). States are laid out as the model's: ``(n, ...)``,
+    the state first, at times ``t`` of shape ``(...)``."""
+
+    t0: Any
+    x0: Any
+    V: Any
+
+    def params(self, p):
+        """The parameters the model is evaluated on in this frame (its gaps moved)."""
+        x0 = self.x0
+        return dict(p, gap=-(x0[:-1] - x0[1:] - p["gap"]))
+
+    def shift(self, t, xp=np):
+        """Where the frame's origin of each vehicle is at time(s) ``t`` (N, ...) [length]."""
+        t = xp.asarray(t, dtype=float)
+        x0 = xp.reshape(self.x0, xp.shape(self.x0) + (1,) * t.ndim)
+        return x0 + self.V * (t - self.t0)
+
+    def to_abs(self, t, u, xp=np):
+        """Absolute state(s) ``y`` (n, ...) at time(s) ``t`` (...) from frame states ``u``."""
+        N = xp.shape(self.x0)[0]
+        return xp.concatenate([u[:N] + self.shift(t, xp), u[N:2 * N] + self.V, u[2 * N:]])
+
+    def to_frame(self, t, y, xp=np):
+        """Frame state(s) ``u`` (n, ...) at time(s) ``t`` (...) from absolute states ``y``."""
+        N = xp.shape(self.x0)[0]
+        return xp.concatenate([y[:N] - self.shift(t, xp), y[N:2 * N] - self.V, y[2 * N:]])
 
 
 class HybridModel:
@@ -83,8 +137,10 @@ class HybridModel:
         }
         self.events = [(j, w) for j, part in enumerate(self.parts)
                        for w in range(len(part.event_kinds))]
-        v = scene.speeds
-        self.v_scale = float(max(np.max(np.abs(v)), np.max(np.abs(np.diff(v))), 1e-300))
+        #: the unit of each event function: "length", "velocity" or "force"
+        self.event_units = tuple(_event_unit(self.parts[j], self.parts[j].event_kinds[w])
+                                 for j, w in self.events)
+        self.v_scale = float(self.speed_scale())
         self.event_linear, self.piece_event = self._piece_layout()
 
     def features(self) -> frozenset[str]:
@@ -109,8 +165,9 @@ class HybridModel:
         return x[:-1] - x[1:] - p["gap"], v[:-1] - v[1:]
 
     def _mu(self, p, xp):
+        """The reduced mass of each contact's pair (..., K) [mass]."""
         m = p["m"]
-        return m[:-1] * m[1:] / (m[:-1] + m[1:])
+        return m[..., :-1] * m[..., 1:] / (m[..., :-1] + m[..., 1:])
 
     def initial(self, p=None, xp=np):
         """Initial continuous state ``y0`` and discrete state (list of per-part dicts)."""
@@ -265,27 +322,36 @@ class HybridModel:
             if code:
                 raise SimulationError(f"contact {k} at t = {t:.6g} s: {STATUS[code]}")
 
-    def is_over(self, y, disc, t=0.0, horizon=None) -> bool:
+    def is_over(self, y, disc, t=0.0, horizon=None, p=None, xp=np, v_scale=None):
         """True when every contact is open for good (:meth:`contacts_apart`) and no braked
-        vehicle still slides (so no force acts and none can act again)."""
-        if any(int(st["mode"]) != 0 for st in disc[self.K: self.K + len(self.brakes)]):
+        vehicle still slides (so no force acts and none can act again); arguments as
+        :meth:`contacts_apart` (a traced boolean on ``jax.numpy``)."""
+        held = [st["mode"] == 0 for st in disc[self.K: self.K + len(self.brakes)]]
+        if xp is np and not all(held):
             return False
-        return self.contacts_apart(y, disc, t, horizon)
+        over = self.contacts_apart(y, disc, t, horizon, p, xp, v_scale)
+        for h in held:
+            over = over & h
+        return bool(over) if xp is np else over
 
     def contacts_apart(self, y, disc, t=0.0, horizon=None, p=None, xp=np, v_scale=None):
         """True when every contact is open and none will close again (braked vehicles may still
         slide): with every contact open no force acts, each vehicle keeps its speed, and contact
         ``k`` closes again at ``t + gap_k / rate_k`` (``gap_k`` [length]: what is left to close,
         :meth:`~lsc.contact.HysteresisLaw.closing_gap`; ``rate_k``: its closing rate). It will
-        not when ``rate_k`` is rounding (at most ``OVER_TOL`` of the speed scale ``v_scale``),
-        or when that time is after ``horizon`` [s] (default :meth:`horizon`, the time by which
-        a crash of this scene is over): a pair of an elastic chain left closing at 1e-11 ft/s
-        by the integrator's error, 2 ft apart, would close again after 2e11 s.
-        ``t`` [s]: now; ``p``, ``xp``: parameters and array namespace (``jax.numpy`` in a
-        traced solve, where the result is a traced boolean)."""
-        p = self.params if p is None else p
-        v_scale = self.v_scale if v_scale is None else v_scale
-        horizon = self.crash_horizon if horizon is None else horizon
+        not when ``rate_k`` is rounding (at most ``OVER_TOL`` of the speed scale ``v_scale``,
+        default :meth:`speed_scale`), or when that time is after ``horizon`` [s] (default
+        :meth:`horizon`, the time by which a crash of this scene is over): a pair of an elastic
+        chain left closing at 1e-11 ft/s by the integrator's error, 2 ft apart, would close
+        again after 2e11 s. ``t`` [s]: now; ``y`` (n,), ``disc``: one scene's state; ``p``,
+        ``xp``: parameters and array namespace (``jax.numpy`` in a traced solve, where the
+        result is a traced boolean)."""
+        if p is None:
+            p = self.params
+            v_scale = self.v_scale if v_scale is None else v_scale
+            horizon = self.crash_horizon if horizon is None else horizon
+        v_scale = self.speed_scale(p, xp) if v_scale is None else v_scale
+        horizon = self.horizon(p, xp) if horizon is None else horizon
         D, Dd = self.deformation(xp.asarray(y), p, xp)
         modes = xp.stack([xp.asarray(st["mode"]) for st in disc[: self.K]])
         gaps = xp.stack([xp.asarray(law.closing_gap(D[k], disc[k]), dtype=float)
@@ -295,21 +361,92 @@ class HybridModel:
         return bool(apart) if xp is np else apart
 
     # ------------------------------------------------------------------ scales
-    def time_scale(self, slowest: bool = False, loading: bool = False) -> float:
+    # Array code of the parameters ``p`` (default :attr:`params`; every array may carry the
+    # same leading batch axes, ``p["m"]`` (..., N)) on NumPy or ``jax.numpy`` (``xp``), traceable
+    # by ``jax.jit`` and ``jax.vmap``: each returns an array of the batch shape (a scalar for one
+    # scene) unless it says otherwise.
+    def speed_scale(self, p=None, xp=np):
+        """The speed scale [velocity]: the largest initial speed or speed difference."""
+        v = (self.params if p is None else p)["v0"]
+        fastest = xp.max(xp.abs(v), axis=-1)
+        closing = xp.max(xp.abs(xp.diff(v, axis=-1)), axis=-1)
+        return xp.maximum(xp.maximum(fastest, closing), 1e-300)
+
+    def _slopes(self, p, keys, xp):
+        """The contacts' slopes named by ``keys`` (..., n) [force/length], each made positive;
+        None if no contact has any."""
+        batch = xp.shape(p["m"])[:-1]
+        slopes = [xp.abs(xp.reshape(c[key], batch + (-1,))) for c in p["contacts"]
+                  for key in keys if key in c]
+        return xp.concatenate(slopes, axis=-1) if slopes else None
+
+    def time_scale(self, slowest: bool = False, loading: bool = False, p=None, xp=np):
         """A rough contact time [s] from the stiffest slope and the lightest pair (``slowest``:
         from the softest slope and the heaviest pair; ``loading``: leaving out the IF-D laws'
-        unloading stiffnesses, for a motion with no contact unloading)."""
-        m = self.params["m"]
-        mus = m[:-1] * m[1:] / (m[:-1] + m[1:])
-        mu = np.max(mus) if slowest else np.min(mus)
-        slopes = []
-        for law in self.laws:
-            for key in (("ls", "k") if loading else ("ls", "su", "k")):
-                val = np.asarray(law.params.get(key, []), float).reshape(-1)
-                slopes.extend(np.abs(val[np.isfinite(val)]))
-        slopes = [s for s in slopes if s > 0] or [1.0]
-        k = min(slopes) if slowest else max(slopes)
-        return float(np.sqrt(mu / k))
+        unloading stiffnesses, for a motion with no contact unloading). Slopes that are zero or
+        not finite are left out; with none left the slope is 1."""
+        p = self.params if p is None else p
+        mus = self._mu(p, xp)
+        mu = xp.max(mus, axis=-1) if slowest else xp.min(mus, axis=-1)
+        s = self._slopes(p, ("ls", "k") if loading else ("ls", "su", "k"), xp)
+        if s is None:
+            return xp.sqrt(mu)
+        valid = xp.isfinite(s) & (s > 0)
+        if slowest:
+            k = xp.min(xp.where(valid, s, xp.inf), axis=-1)
+            k = xp.where(xp.isfinite(k), k, 1.0)
+        else:
+            k = xp.max(xp.where(valid, s, 0.0), axis=-1)
+            k = xp.where(k > 0, k, 1.0)
+        return xp.sqrt(mu / k)
+
+    def force_scale(self, p=None, xp=np):
+        """The force scale [force]: the lightest pair's ``μ v / t`` (speed scale over the
+        fastest contact time: a linear contact's ``F_max``)."""
+        p = self.params if p is None else p
+        mu = xp.min(self._mu(p, xp), axis=-1)
+        return mu * self.speed_scale(p, xp) / self.time_scale(p=p, xp=xp)
+
+    def event_scales(self, p=None, xp=np):
+        """The scale of each event function (..., n_events), by its unit
+        (:attr:`event_units`): a length (speed scale times the contact time), the speed scale,
+        or the force scale (:meth:`force_scale`)."""
+        p = self.params if p is None else p
+        batch = xp.shape(p["m"])[:-1]
+        v = self.speed_scale(p, xp)
+        t = self.time_scale(p=p, xp=xp)
+        mu = xp.min(self._mu(p, xp), axis=-1)
+        by_unit = {"length": v * t, "velocity": v, "force": mu * v / t}
+        if not self.event_units:
+            return xp.zeros(batch + (0,))
+        return xp.stack([xp.broadcast_to(by_unit[u], batch) for u in self.event_units], axis=-1)
+
+    def horizon(self, p=None, xp=np):
+        """A time [s] by which a crash of this scene is over unless a contact never separates:
+        a million contact times on the softest slope, plus four times what closing every gap and
+        crossing every table takes at the slowest initial closing speed (a gap closed at 1e-4
+        ft/s, a table traversed slowly, take far longer than any contact time)."""
+        p = self.params if p is None else p
+        batch = xp.shape(p["m"])[:-1]
+        v = self.speed_scale(p, xp)
+        w = -xp.diff(p["v0"], axis=-1)
+        w = xp.where(w > 1e-12 * xp.expand_dims(v, -1), w, xp.inf)
+        w_min = xp.min(w, axis=-1)
+        w_min = xp.where(xp.isfinite(w_min), w_min, v)
+        extent = xp.sum(p["gap"], axis=-1)
+        for c in p["contacts"]:
+            for key in ("ld", "ud"):   # (a table's last breakpoint: BIG, 1e300, is no extent)
+                if key in c:
+                    val = xp.abs(xp.reshape(c[key], batch + (-1,)))
+                    extent = extent + xp.max(xp.where(val < 1e299, val, 0.0), axis=-1)
+        return 1e6 * self.time_scale(slowest=True, p=p, xp=xp) + 4.0 * extent / w_min + 1.0
+
+    @property
+    def crash_horizon(self) -> float:
+        """:meth:`horizon`, computed once [s]."""
+        if not hasattr(self, "_crash_horizon"):
+            self._crash_horizon = float(self.horizon())
+        return self._crash_horizon
 
     def natural_frequency(self, disc, p=None, xp=np):
         """A bound on the highest angular frequency [1/s] of the motion in the frozen discrete
@@ -317,9 +454,9 @@ class HybridModel:
         IF-D law's active piece ``F = fa + s (D - da)`` (an unloading line's too) or the spring
         ``k`` of a Kelvin or Brach law, acts on both its vehicles;
         ``ω² <= max_i (sum of 2|slope| at vehicle i) / m_i`` (Gershgorin). Hunt-Crossley springs
-        (``k D^n``) have no constant slope and count as 0. ``p``, ``xp``: the parameters and the
-        array namespace (NumPy, or ``jax.numpy`` inside a traced solve)."""
+        (``k D^n``) have no constant slope and count as 0."""
         m = (self.params if p is None else p)["m"]
+        batch = xp.shape(m)[:-1]
         load = [0.0] * self.N
         for k, (law, st) in enumerate(zip(self.laws, disc[: self.K])):
             if "s" in st:
@@ -331,7 +468,9 @@ class HybridModel:
             slope = xp.where(st["mode"] != 0, 2.0 * xp.abs(slope), 0.0)
             load[k] = load[k] + slope
             load[k + 1] = load[k + 1] + slope
-        return xp.sqrt(xp.max(xp.stack([xp.asarray(v, dtype=float) for v in load]) / m))
+        load = xp.stack([xp.broadcast_to(xp.asarray(v, dtype=float), batch) for v in load],
+                        axis=-1)
+        return xp.sqrt(xp.max(load / m, axis=-1))
 
     def position_time(self, disc, T, p=None, xp=np):
         """The time [s] that turns a speed tolerance into a position one in discrete state
@@ -345,28 +484,43 @@ class HybridModel:
         w = self.natural_frequency(disc, p, xp)
         return xp.where(w * T > 1.0, 1.0 / xp.where(w > 0, w, 1.0), T)
 
-    def horizon(self) -> float:
-        """A time [s] by which a crash of this scene is over unless a contact never separates:
-        a million contact times on the softest slope, plus four times what closing every gap and
-        crossing every table takes at the slowest initial closing speed (a gap closed at 1e-4
-        ft/s, a table traversed slowly, take far longer than any contact time)."""
-        w = -np.diff(np.asarray(self.params["v0"], float))
-        w = w[w > 1e-12 * self.v_scale]
-        w_min = float(np.min(w)) if w.size else self.v_scale
-        extent = float(np.sum(self.params["gap"]))
-        for law in self.laws:
-            for key in ("ld", "ud"):
-                val = np.abs(np.asarray(law.params.get(key, []), float).reshape(-1))
-                val = val[val < 1e299]
-                extent += float(np.max(val)) if val.size else 0.0
-        return 1e6 * self.time_scale(slowest=True) + 4.0 * extent / w_min + 1.0
+    def max_step(self, disc, p=None, xp=np):
+        """The longest integrator step [s] in discrete state ``disc``: ``MAX_ANGLE / ω``
+        (:meth:`natural_frequency`), ``inf`` while no contact is loaded. Over longer steps of an
+        oscillation the embedded error estimates stop being reliable."""
+        w = self.natural_frequency(disc, p, xp)
+        return xp.where(w > 0, MAX_ANGLE / xp.where(w > 0, w, 1.0), xp.inf)
 
-    @property
-    def crash_horizon(self) -> float:
-        """:meth:`horizon`, computed once [s]."""
-        if not hasattr(self, "_crash_horizon"):
-            self._crash_horizon = self.horizon()
-        return self._crash_horizon
+    def default_atol(self, rtol, disc=None, p=None, xp=np):
+        """The default absolute tolerances (..., n_state) for relative tolerance ``rtol``:
+        ``rtol`` times the speed scale for velocities, times :meth:`position_time` for
+        positions (the loading contact time, or the active pieces' ``1 / ω`` in discrete state
+        ``disc`` where they are stiffer: a near-plastic rebound line; without ``disc`` the
+        loading contact time), and times the speed scale and the lightest mass for the work
+        integrals (an energy)."""
+        p = self.params if p is None else p
+        batch = xp.shape(p["m"])[:-1]
+        v = self.speed_scale(p, xp)
+        rv = rtol * v
+        T = self.time_scale(loading=True, p=p, xp=xp)
+        if disc is not None:
+            T = self.position_time(disc, T, p, xp)
+        energy = rv * v * xp.min(p["m"], axis=-1)
+
+        def full(x, n):
+            return xp.broadcast_to(xp.expand_dims(x, -1), batch + (n,))
+        return xp.concatenate([full(rv * T, self.N), full(rv, self.N),
+                               full(energy, len(self.work))], axis=-1)
+
+    def frame(self, t0, y, p=None, xp=np) -> Frame:
+        """The frame a segment that starts at time ``t0`` [s] in state ``y`` (n,) is integrated
+        in (:class:`Frame`): positions from where the vehicles are at ``t0``, moving with the
+        centre of mass (``V = Σ m v / Σ m``), or not at all with brakes, which need each
+        vehicle's own velocity (and a held vehicle must stay exactly where it is)."""
+        m = (self.params if p is None else p)["m"]
+        N = self.N
+        V = xp.asarray(0.0) if self.brakes else xp.matmul(m, y[N:2 * N]) / xp.sum(m)
+        return Frame(t0, xp.array(y[:N], dtype=float), V)
 
     @staticmethod
     def to_python(disc) -> list[dict]:

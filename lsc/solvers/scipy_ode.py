@@ -17,7 +17,7 @@ starts on the surface it just crossed moves away from it and does not fire again
 trap).
 
 No step is longer than ``MAX_ANGLE / ω`` for the highest natural frequency ``ω`` of the frozen
-contacts (:meth:`HybridModel.natural_frequency`): over longer steps of an oscillation the embedded
+contacts (:meth:`HybridModel.max_step`): over longer steps of an oscillation the embedded
 error estimates stop being reliable (DOP853 accepted a one-radian step of a near-plastic rebound
 with an error of 5e-6, and Radau's damping of a stiff unloading oscillation lost the rebound and
 the separation), and no segment takes more than ``max_steps`` steps (a bounded loop: a problem too
@@ -37,6 +37,7 @@ from scipy.optimize import brentq
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
+from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
 from .segments import Step, build_result, run_segments
@@ -45,58 +46,17 @@ __all__ = ["BACKEND", "FEATURES", "solve", "INTEGRATORS"]
 
 INTEGRATORS = ("RK45", "DOP853", "LSODA", "Radau", "BDF", "RK23")
 
-#: Longest step, in radians of the fastest natural oscillation of the frozen contacts.
-MAX_ANGLE = 0.5
-
-
-class _Frame:
-    """The coordinates one segment is integrated in: each vehicle's position from where it was
-    at the segment start ``t0``, less the motion of the centre of mass ``V (t - t0)``, and
-    velocities less ``V``; contact ``k``'s gap becomes ``-D0_k``, so that its deformation is
-    ``D0_k + (u_k - u_{k+1})``. With brakes, which need each vehicle's own velocity (and a held
-    vehicle must stay exactly where it is), the frame does not move (``V = 0``).
-
-    Absolute positions hold a deformation only to their own ulps: at 45 ft/s with a closing speed
-    of 3e-4 ft/s a whole rebound of ``e = 1e-6`` (``1e-12 D_max`` wide) was below them, its
-    force was noise and DOP853 stalled at its step limit. In this frame the deformation is
-    resolved to the ulps of ``D`` itself (and the law's :data:`~lsc.contact.REBOUND_RESOLUTION`
-    is the only floor left), whatever the speeds."""
-
-    def __init__(self, model, p, t0, y_abs, m, N):
-        self.t0, self.N = t0, N
-        self.x0 = y_abs[:N].copy()
-        self.V = 0.0 if model.brakes else float(m @ y_abs[N:2 * N] / m.sum())
-        self.p = dict(p, gap=-(self.x0[:-1] - self.x0[1:] - np.asarray(p["gap"], float)))
-        u0 = y_abs.copy()
-        u0[:N] = 0.0
-        u0[N:2 * N] -= self.V
-        self.u0 = u0
-
-    @staticmethod
-    def to_model(u):
-        """The state the model is evaluated on: the frame's own (the model uses positions only
-        through deformations, and velocities, without brakes, only through closing rates)."""
-        return u
-
-    def to_abs(self, t, u):
-        """Absolute state(s) ``y`` at time(s) ``t`` from frame states ``u`` ((n,) or (n, k))."""
-        y = np.array(u, float)
-        N, t = self.N, np.asarray(t, float)
-        x0 = self.x0 if y.ndim == 1 else self.x0[:, None]
-        y[:N] += x0 + self.V * (t - self.t0)
-        y[N:2 * N] += self.V
-        return y
-
-    def dense(self, sol):
-        """The absolute dense output from the frame's."""
-        return lambda tt: self.to_abs(tt, sol(tt))
 
 
 def _max_step(model, disc) -> float:
-    """The longest step in discrete state ``disc`` [s]: ``MAX_ANGLE / ω`` (no limit while no
-    contact is loaded)."""
-    w = model.natural_frequency(disc)
-    return MAX_ANGLE / w if w > 0 else np.inf
+    """The longest step in discrete state ``disc`` [s] (:meth:`HybridModel.max_step`)."""
+    return float(model.max_step(disc))
+
+
+def _absolute(frame, sol):
+    """A segment's dense output ``sol`` (in its ``frame``) as absolute states: ``(n,)`` at a
+    time, ``(n, k)`` at ``k`` times."""
+    return lambda tt: frame.to_abs(tt, sol(tt))
 
 
 def _other(integrator: str) -> str:
@@ -105,44 +65,23 @@ def _other(integrator: str) -> str:
     return " or ".join(f"integrator {i!r}" for i in others)
 
 
-def _atol(model, rtol: float, atol, disc, t_load: float):
-    """Absolute tolerances (2N,) in discrete state ``disc``: given, or ``rtol`` times the speed
-    scale, times :meth:`HybridModel.position_time` for positions (``t_load``, the loading
-    contact time, or the active pieces' ``1 / ω`` where they are stiffer: a near-plastic
-    rebound line)."""
-    if atol is not None:
-        return float(atol)
-    v = rtol * model.v_scale
-    T = float(model.position_time(disc, t_load))
-    m = np.asarray(model.params["m"], float)
-    e = v * model.v_scale * float(np.min(m))  # work integrals: an energy scale
-    return np.concatenate([np.full(model.N, v * T), np.full(model.N, v),
-                           np.full(len(model.work), e)])
-
-
 #: Start-on-surface threshold, relative to each event's scale (as the diffrax backend's).
 EVENT_TOL = 1e-12
 
 
 def _event_scales(model) -> np.ndarray:
-    """The scale of each event function of the IF-D law: a length (``v_scale`` times the contact
-    time scale) for its deformation bounds, ``v_scale`` for its closing rate; ``v_scale`` for a
-    brake's stop (a sliding vehicle's speed through zero); 0 for the other events (no restart
-    shift: :func:`_restart`).
+    """The scale of each event function that :func:`_restart` shifts
+    (:meth:`HybridModel.event_scales`): the IF-D law's events (deformation bounds: a length;
+    closing rate: the speed scale) and a brake's stop (a sliding vehicle's speed through zero);
+    0 for the other events (no restart shift).
 
     (A held vehicle keeps a speed of a rounding error, -3e-17 m/s: when it broke away under a net
     force equal to its friction limit, with mu = mu_static, its stop fired at once, then its
     break-away, to the event limit. With a scale its stop starts a rounding error past its surface
     and is shifted like an IF-D event.)"""
-    L, V = model.v_scale * model.time_scale(), model.v_scale
-    out = np.zeros(len(model.events))
-    for i, (j, w) in enumerate(model.events):
-        part = model.parts[j]
-        if isinstance(part, HysteresisLaw):
-            out[i] = V if part.event_kinds[w] == "vmax" else L
-        elif isinstance(part, BrakeEffect) and w == 0:
-            out[i] = V
-    return out
+    shifted = [isinstance(model.parts[j], HysteresisLaw)
+               or (isinstance(model.parts[j], BrakeEffect) and w == 0) for j, w in model.events]
+    return np.where(shifted, model.event_scales(), 0.0)
 
 
 def _restart(model, disc, p, t0, y0, active, scale, fired):
@@ -245,8 +184,8 @@ class _StepWatch:
     fitted exactly; one that is not is interpolated at :data:`~.step_roots.NONLINEAR_POINTS`
     points, its values lowered by the interpolant's error bound."""
 
-    def __init__(self, model, disc, pf, to_model, active, shift, touch):
-        self.model, self.disc, self.pf, self.to_model = model, disc, pf, to_model
+    def __init__(self, model, disc, pf, active, shift, touch):
+        self.model, self.disc, self.pf = model, disc, pf
         self.pf_columns = dict(pf, gap=np.asarray(pf["gap"], float)[:, None])
         events = np.asarray(active, dtype=int)
         self.pieces = np.flatnonzero(np.isin(model.piece_event, events))
@@ -257,9 +196,9 @@ class _StepWatch:
     def values(self, t, u):
         """The watched pieces (n_pieces, ...) at frame state(s) ``u``."""
         if np.ndim(u) == 1:
-            vals = self.model.event_pieces(t, self.to_model(u), self.disc, self.pf)
+            vals = self.model.event_pieces(t, u, self.disc, self.pf)
             return vals[self.pieces] + self.shift
-        vals = self.model.event_pieces(t, self.to_model(u), self.disc, self.pf_columns)
+        vals = self.model.event_pieces(t, u, self.disc, self.pf_columns)
         return vals[self.pieces] + self.shift[:, None]
 
     def _series(self, dense, t_old, h, n):
@@ -413,14 +352,12 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)
     scale = _event_scales(model)
-    t_load = model.time_scale(loading=True)   # (for each segment's position tolerance)
     # an event past its surface by less only touched it (100 rtol: the global error of a
     # deformation, here 2.7e-12 of D_max at rtol 1e-12)
     touch = max(EVENT_TOL, 100 * rtol) * scale
     last = [0.0, set()]  # the latest event time, and the parts that had events then
 
     N = model.N
-    m = np.asarray(p["m"], float)
 
     def advance(t0, y0_abs, disc, horizon):
         y0_abs = np.asarray(y0_abs, float)
@@ -433,21 +370,21 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
             return Step(t0, y0_abs, now,
                         lambda tt: np.repeat(y0_abs[:, None], np.size(tt), axis=1))
 
-        # The segment's frame (see _Frame): positions from where the segment starts, moving
-        # with its centre of mass.
-        frame = _Frame(model, p, t0, y0_abs, m, N)
-        at = _atol(model, rtol, atol, disc, t_load)
-        pf, to_model = frame.p, frame.to_model
+        # The segment's frame (HybridModel.frame): positions from where the segment starts,
+        # moving with its centre of mass; the model is evaluated on the frame's own state.
+        frame = model.frame(t0, y0_abs)
+        at = float(atol) if atol is not None else model.default_atol(rtol, disc)
+        pf = frame.params(p)
 
         def fun(t, u):
-            f = np.asarray(model.rhs(t, to_model(u), disc, pf), float)
+            f = np.asarray(model.rhs(t, u, disc, pf), float)
             f[:N] = u[N:2 * N]   # (dx/dt = v: the frame's own velocities, unrounded)
             return f
 
         def gval(t, u):
-            return model.event_values(t, to_model(u), disc, pf) + shift
+            return model.event_values(t, u, disc, pf) + shift
 
-        y0 = frame.u0
+        y0 = frame.to_frame(t0, y0_abs)
 
         extra_nfev = [0]   # right-hand sides evaluated polishing events
 
@@ -480,7 +417,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         except ValueError as exc:  # SciPy's own check of its options
             raise SimulationError(f"SciPy {integrator} could not start at t = {t0:.6g} s: "
                                   f"{exc}") from exc
-        watch = _StepWatch(model, disc, pf, to_model, active, shift, touch)
+        watch = _StepWatch(model, disc, pf, active, shift, touch)
         ts, interpolants = [t0], []
         best, tb, yb = None, t0, y0
         while solver.status == "running":
@@ -525,7 +462,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
             if tb != last[0]:
                 last[:] = [tb, set()]
             last[1].add(model.events[best][0])
-        return Step(tb, frame.to_abs(tb, yb), best, frame.dense(sol), steps, nfev)
+        return Step(tb, frame.to_abs(tb, yb), best, _absolute(frame, sol), steps, nfev)
 
     start = time.perf_counter()
     segments, events, y, disc, totals = run_segments(model, advance, t_end=t_end,
