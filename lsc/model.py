@@ -20,7 +20,6 @@ failures'. Events are numbered in the same order; event ``i`` is event ``which``
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from .contact import STATUS, make_law
