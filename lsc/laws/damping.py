@@ -374,7 +374,7 @@ class BrachLaw(SpringDashpotLaw):
         given = values["damping_restitution"] is not None
         nan = xp.asarray(np.nan)
         return {"k": _as_float(values["stiffness"], xp),
-                "c1": _as_float(values["damping"] or 0.0, xp),
+                "c1": _as_float(values["damping"], xp),
                 "e": _as_float(nan if given else values["restitution"], xp),
                 "c2": _as_float(values["damping_restitution"] if given else nan, xp)}
 
