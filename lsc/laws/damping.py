@@ -62,6 +62,11 @@ RESTITUTION = Param("restitution", "dimensionless", "the target coefficient of r
                     check=_target_restitution, schema=(0, True, 1))
 
 
+def _one_of_damping_or_restitution(law: str) -> str:
+    return (f"the {law} law needs exactly one of damping or restitution (the target e, converted "
+            "by the law's own relation)")
+
+
 def _as_float(x, xp):
     return xp.asarray(x, float)
 
@@ -280,8 +285,7 @@ class KelvinLaw(SpringDashpotLaw):
               minimum=0.0, strict=False,
               hint="Kelvin's c multiplies the closing rate: F = k D + c dD/dt"),
         RESTITUTION)
-    choice = (("damping", "restitution"), "the kelvin law needs exactly one of damping or "
-              "restitution (the target e, converted by the law's own relation)")
+    choice = (("damping", "restitution"), _one_of_damping_or_restitution("kelvin"))
     affine_force = True
 
     @property
@@ -320,8 +324,7 @@ class HuntCrossleyLaw(SpringDashpotLaw):
         RESTITUTION,
         Param("exponent", "dimensionless", "Hunt–Crossley's n in F = k D^n (1 + α dD/dt)",
               default=1.0, minimum=0.0))
-    choice = (("damping", "restitution"), "the hunt-crossley law needs exactly one of damping "
-              "or restitution (the target e, converted by the law's own relation)")
+    choice = (("damping", "restitution"), _one_of_damping_or_restitution("hunt-crossley"))
 
     @staticmethod
     def build(values, mu, xp):

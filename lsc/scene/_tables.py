@@ -178,6 +178,18 @@ def _read_csv(value, path: str, factors, ctx: Reader) -> np.ndarray:
     return _check_points(arr, path, ctx)
 
 
+def _kind(spec, path: str, keys: tuple, kinds: tuple, what: str, example: str):
+    """(the table, the one of ``kinds`` it gives, that key's path) of a curve's table at
+    ``path``; column units only beside a table or a csv."""
+    spec = _table(spec, path, keys, example)
+    kind = _one_of(spec, kinds, path, what)
+    if kind not in ("table", "csv"):
+        for key in _COLUMN_KEYS:
+            if key in spec:
+                raise SceneError(_p(path, key), f"column units apply to a table or csv, not to {kind}")
+    return spec, kind, _p(path, kind)
+
+
 def _loading(spec, path: str, ctx: Reader) -> Curve:
     """A loading spec (``stiffness`` | ``table`` | ``csv`` | ``series``, optional ``scale``) → Curve."""
     return _scaled_loading(spec, path, ctx)[0]
@@ -185,13 +197,8 @@ def _loading(spec, path: str, ctx: Reader) -> Curve:
 
 def _scaled_loading(spec, path: str, ctx: Reader) -> tuple[Curve, float]:
     """A loading spec → (its Curve, the ``scale`` applied to its forces, 1 if none)."""
-    spec = _table(spec, path, _LOADING_KEYS, "{ stiffness = 24000 }")
-    kind = _one_of(spec, _LOADING_KINDS, path, "a loading curve")
-    if kind not in ("table", "csv"):
-        for key in _COLUMN_KEYS:
-            if key in spec:
-                raise SceneError(_p(path, key), f"column units apply to a table or csv, not to {kind}")
-    sub = _p(path, kind)
+    spec, kind, sub = _kind(spec, path, _LOADING_KEYS, _LOADING_KINDS, "a loading curve",
+                            "{ stiffness = 24000 }")
     try:
         if kind == "stiffness":
             curve = Curve.linear(_qty(spec, "stiffness", "stiffness", ctx, path, minimum=0.0))
@@ -224,13 +231,8 @@ def _scaled_loading(spec, path: str, ctx: Reader) -> tuple[Curve, float]:
 
 def _unloading(spec, path: str, ctx: Reader, loading: Curve):
     """An unloading spec (``restitution`` | ``stiffness`` | ``table`` | ``csv``) → its rule."""
-    spec = _table(spec, path, _UNLOADING_KEYS, "{ restitution = 0.4 }")
-    kind = _one_of(spec, _UNLOADING_KINDS, path, "the unloading branch")
-    if kind not in ("table", "csv"):
-        for key in _COLUMN_KEYS:
-            if key in spec:
-                raise SceneError(_p(path, key), f"column units apply to a table or csv, not to {kind}")
-    sub = _p(path, kind)
+    spec, kind, sub = _kind(spec, path, _UNLOADING_KEYS, _UNLOADING_KINDS,
+                            "the unloading branch", "{ restitution = 0.4 }")
     if kind == "restitution":
         e = _qty(spec, kind, "dimensionless", ctx, path)
         if not 0.0 <= e <= 1.0:
