@@ -5,15 +5,11 @@ from __future__ import annotations
 
 import difflib as _difflib
 from collections.abc import Mapping as _Mapping
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import SceneError
 from ..units import UNITS, _expected, _type_name, to_system as _to_system
-
-if TYPE_CHECKING:
-    from ._tables import Reader
 
 _MAX_DEPTH = 64
 _MISSING = object()
@@ -89,13 +85,14 @@ def _choice(value, accepted: tuple[str, ...], path: str, what: str, aliases=None
     raise SceneError(path, f'unknown {what} "{value}"{hint} accepted: {", ".join(accepted)}')
 
 
-def _qty(spec: dict, key: str, kind: str, ctx: Reader, path: str, *, default=_MISSING,
+def _qty(spec: dict, key: str, kind: str, ctx, path: str, *, default=_MISSING,
          minimum: float | None = None, strict: bool = True, hint: str | None = None,
          bounded: bool | None = None) -> float:
     """Read ``spec[key]`` as a ``kind`` quantity in the scene's units, with a lower bound.
 
     ``minimum`` with ``strict`` means ``> minimum``; otherwise ``>= minimum``. ``bounded``
     (default: for every kind but plain numbers) also holds the value to :data:`MAGNITUDES`.
+    ``ctx``: the load's :class:`~lsc.scene.Reader` (its unit system).
     """
     p = _p(path, key)
     if key not in spec:
