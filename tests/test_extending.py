@@ -8,6 +8,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import lsc
+import lsc.solvers
 from lsc.effects import VehicleEffect, register_vehicle_effect, unregister_vehicle_effect
 from lsc.laws import Param, SpringDashpotLaw, register_law, unregister_law
 from lsc.solvers import methods
@@ -197,3 +198,15 @@ def test_a_toy_effect_declared_integrable_is_solved_by_scipy(drag):
     for method in ("closed-form", "exact", "reference"):   # still refused where not declared
         with pytest.raises(lsc.SceneError):
             lsc.solve(drag_scene(), method=method)
+
+
+def test_the_generic_integrators_declare_registered_integrable_parts_only(toy_law, drag):
+    scipy, diffrax = (lsc.solvers.backend(name) for name in ("scipy", "diffrax"))
+    exact = lsc.solvers.backend("exact")
+    assert "law:toy" in scipy.solves and "law:toy" in diffrax.solves
+    assert "law:toy" not in exact.solves
+    assert "effect:drag" not in scipy.solves and "effect:drag" not in diffrax.batch
+    Drag.integrable = True
+    assert "effect:drag" in scipy.solves and "effect:drag" in diffrax.batch
+    unregister_law("toy")
+    assert "law:toy" not in scipy.solves
