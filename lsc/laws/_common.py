@@ -8,6 +8,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..units import register_kind
+
 __all__ = ["MODE_OPEN", "MODE_LOADING", "MODE_UNLOADING", "BIG", "STATUS", "REBOUND_RESOLUTION",
            "REQUIRED", "Param", "select", "smooth_min"]
 
@@ -93,11 +95,10 @@ class Param:
 
     def kind_for(self, values: dict) -> str:
         """The unit kind of this key, given the values read before it."""
+        kind = self.kind(values) if callable(self.kind) else self.kind
         if self.unit is not None:
-            from ..units import register_kind
-
-            register_kind(self.kind, *self.unit)
-        return self.kind(values) if callable(self.kind) else self.kind
+            register_kind(kind, *self.unit)
+        return kind
 
     @property
     def bounds(self) -> tuple:

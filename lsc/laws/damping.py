@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SceneError
+from ..units import register_kind
 from ._common import MODE_LOADING, MODE_OPEN, MODE_UNLOADING, Param
 from ._common import select as _sel
 from ._common import smooth_min as _min
@@ -406,8 +407,6 @@ class BrachLaw(SpringDashpotLaw):
 
 def _stiffness_kind(n: float) -> str:
     """A unit kind for force/length^n (Hunt–Crossley stiffness), registered on first use."""
-    from ..units import register_kind
-
     if n == 1.0:
         return "stiffness"
     return register_kind(f"stiffness^{n:g}", f"N/m^{n:g}", f"lbf/ft^{n:g}",
