@@ -561,3 +561,35 @@ def test_a_scene_without_an_effect_evaluates_no_term_of_it(monkeypatch):
     assert calls == []
     lsc.solve(braked(2.0, mu1=0.7), method="scipy")
     assert "accel" in calls and "events" in calls
+
+
+def test_law_numbers_trace_under_jax_as_they_compute_on_numpy():
+    """A law builds its model numbers from its keys with array code: jitted with JAX it gives
+    the NumPy numbers (targets converted by a root find excepted: they are NumPy only)."""
+    jax = pytest.importorskip("jax")
+    import jax.numpy as jnp
+
+    from lsc.laws import make_law
+
+    jax.config.update("jax_enable_x64", True)  # as the JAX backend does
+
+    cases = [(lsc.Scene.load({"vehicles": [{"mass": M1, "speed": 3.0}, {"mass": M2, "speed": 0}],
+                              "contacts": [{"loading": {"table": [[0, 0], [0.1, 1e4], [0.3, 9e4]],
+                                                        "scale": 2.0},
+                                            "unloading": {"restitution": 0.4}}]}),
+              {"loading.scale": [1.0, 3.0], "unloading.restitution": [0.1, 0.7]}),
+             (lsc.Scene.load(damped("kelvin", stiffness=2.0e5, damping=4000.0)),
+              {"stiffness": [1e5, 3e5], "damping": [1e3, 8e3]}),
+             (lsc.Scene.load(damped("hunt-crossley", stiffness=2.0e5, exponent=1.5, damping=0.2)),
+              {"exponent": [1.0, 1.2], "damping": [0.1, 0.4]}),
+             (lsc.Scene.load(damped("brach", stiffness=2.0e5, restitution=0.5, damping=1e4)),
+              {"restitution": [0.3, 0.8], "damping": [0.0, 2e4]})]
+    mu = np.array([MU, 2 * MU])
+    for scene, changes in cases:
+        law = make_law(scene.contacts[0], MU)
+        changes = {k: np.asarray(v) for k, v in changes.items()}
+        on_numpy = law.numbers(changes, mu, np)
+        traced = jax.jit(lambda c, m: law.numbers(c, m, jnp))(changes, mu)
+        for name, value in on_numpy.items():
+            np.testing.assert_allclose(np.asarray(traced[name]), value, rtol=1e-15, atol=0,
+                                       err_msg=f"{law.name} {name}")
