@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SceneError
+from .laws import law_class, make_law
 from .scene import Scene
 
 __all__ = ["read_back", "setter", "batched", "batch_params"]
@@ -48,8 +49,7 @@ def _locate(scene: Scene, path: str):
 
 
 def _law(scene: Scene, k: int):
-    from .laws import make_law
-
+    """The law object of contact ``k`` of ``scene``."""
     c = scene.contacts[k]
     m = scene.masses
     return make_law(c, float(m[k] * m[k + 1] / (m[k] + m[k + 1])))
@@ -65,8 +65,8 @@ def read_back(scene: Scene, path: str) -> float:
             return {"speed": veh.speed, "mass": veh.mass, "weight": veh.mass * scene.g}[key]
         if what == "gap":
             return scene.contacts[i].gap
-        law = scene.contacts[i].law
-        value = _law(scene, i).value(law, key)
+        spec = scene.contacts[i].law
+        value = law_class(spec.name).value(spec, key)
         if value is not None:
             return float(value)
     raise SceneError(path, "values with units are accepted only for speeds, masses, weights, gaps "

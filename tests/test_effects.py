@@ -593,3 +593,13 @@ def test_law_numbers_trace_under_jax_as_they_compute_on_numpy():
         for name, value in on_numpy.items():
             np.testing.assert_allclose(np.asarray(traced[name]), value, rtol=1e-15, atol=0,
                                        err_msg=f"{law.name} {name}")
+
+
+def test_a_damping_law_key_swept_with_units_is_its_declared_unit():
+    """A swept damping key given with units is converted by the unit its law declares: each
+    member solves as the scene with that damping in scene units."""
+    base = damped("kelvin", stiffness=2.0e5, damping=4000.0)
+    s = lsc.sweep(base, {"contacts.0.damping": ["2 kN*s/m", "300 lbf*s/ft"]}, method="scipy")
+    for j, c in enumerate([2000.0, 300 * 4.4482216152605 / 0.3048]):
+        r = lsc.solve(damped("kelvin", stiffness=2.0e5, damping=c), method="scipy")
+        np.testing.assert_allclose(s.metrics["delta_v"][j], r.delta_v, rtol=1e-12)
