@@ -119,7 +119,14 @@ class SpringDashpotLaw:
         for p in cls.params_declared:
             if p.key in choice and p.key in spec:
                 values[p.key] = reader.param(spec, p, path, values)
-        return Damping(cls.name, **{k: v for k, v in values.items() if v is not None})
+        return cls.describe({k: v for k, v in values.items() if v is not None})
+
+    @classmethod
+    def describe(cls, values: dict):
+        """The law's description (what :attr:`spec` holds) from the values read: a
+        :class:`Damping` (a law with keys it has no field for returns its own record, whose
+        attributes are its keys)."""
+        return Damping(cls.name, **values)
 
     @classmethod
     def value(cls, spec: Damping, key: str) -> float | None:
