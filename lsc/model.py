@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from .contact import STATUS, make_law
-from .effects import BrakeEffect, FailureEffect
+from .effects import FailureEffect, vehicle_effects
 from .errors import SimulationError
 from .moving_frame import Frame
 
@@ -76,8 +76,7 @@ class HybridModel:
         m = scene.masses
         mu = m[:-1] * m[1:] / (m[:-1] + m[1:])
         self.laws = [make_law(c, mu[k]) for k, c in enumerate(scene.contacts)]
-        self.brakes = [BrakeEffect(i, v.brake, scene.g) for i, v in enumerate(scene.vehicles)
-                       if v.brake is not None]
+        self.brakes = vehicle_effects(scene)  # brakes and other registered vehicle effects
         # A failure with a post-failure curve is the contact law's own (its loading curve is
         # spliced at the failure point, where its breakpoint event is the failure); a failure
         # force alone is an effect watching the contact force.
