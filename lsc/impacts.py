@@ -106,6 +106,13 @@ def _peaks_between(spans, t0: float, t1: float, contact: int, pair: tuple):
     return max(float(s[2][contact]) for s in inside), acc[pick, [0, 1]]
 
 
+def _crush_between(spans, t0: float, t1: float, contact: int) -> float:
+    """The largest deformation of ``contact`` over the ``spans`` inside ``[t0, t1]`` that give
+    one (-inf where none does)."""
+    return max((float(s[4][contact]) for s in spans
+                if len(s) > 4 and s[0] >= t0 and s[1] <= t1), default=-np.inf)
+
+
 def _raised(force: float, acc: tuple, span_force, span_acc) -> tuple[float, tuple]:
     """``force`` and ``acc`` raised to the spans' peaks where those are larger in magnitude."""
     if span_force is None:
@@ -135,7 +142,8 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
     speeds of an impact that ends then); ``records`` the contacts' records (``dmax, ec, er``);
     ``speeds`` (N,) at t = 0; ``g`` [acceleration]; ``v_max`` the scale of the pushed-shut test
     (:data:`PUSHED`); ``spans``: peaks a backend located between the rows, ``(t0, t1, force
-    (K,), acceleration (N,) signed)``, each counted in the impacts that hold ``[t0, t1]``."""
+    (K,), acceleration (N,) signed)`` and optionally ``deformation (K,)``, each counted in the
+    impacts that hold ``[t0, t1]``."""
     t, v, a = rows["t"], rows["v"], rows["a"]
     K = rows["deformation"].shape[1]
     found = episodes(events, K, float(t[-1]))
@@ -155,8 +163,10 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
         closing, separating = float(vs[0] - vs[1]), float(ve[1] - ve[0])
         rec, alone = records[k], count[k] == 1
         e_energy = float(np.sqrt(rec["er"] / rec["ec"])) if alone and rec["ec"] > 0 else None
-        # (the record's max deformation is exact; the rows hold it at the event)
-        crush = float(rec["dmax"]) if alone else float(np.max(rows["deformation"][span, k]))
+        # (the record's max deformation is exact; for a contact that closes again, the rows
+        # hold it at its events, the spans where it turns inside a segment)
+        crush = float(rec["dmax"]) if alone else max(float(np.max(rows["deformation"][span, k])),
+                                                     _crush_between(spans, t0, t1, k))
         impacts.append(Impact(
             contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
             closing_speed=closing, separation_speed=separating,

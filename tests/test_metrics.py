@@ -248,3 +248,25 @@ def test_series_hold_every_event_and_the_exact_motion(method):
         tol = 1e-12 if method == "exact" else 1e-8
         np.testing.assert_allclose(getattr(r, name), exact[name], rtol=0, atol=tol * scale,
                                    err_msg=name)
+
+
+@pytest.mark.parametrize("method", ["exact", "scipy"])
+def test_a_reloaded_contact_peaks_inside_its_segment_are_located_not_sampled(method):
+    # the braked target struck a second time: the contact is reloaded along its unloading line
+    # and turns back on it with no event, so its second impact's peak force, crush and peak
+    # accelerations lie inside a segment; they must be those of a fine sampling (1000 samples
+    # were 1.5e-4 low)
+    scene = two_vehicle_scene(3)
+    r = lsc.solve(scene, method=method)
+    second = [m for m in r.impacts if m.contact == 0][1]
+    fine = lsc.solve(scene, method="exact", n_samples=400_000)
+    inside = (fine.t >= second.t_start) & (fine.t <= second.t_end)
+    tol = 1e-9 if method == "exact" else 1e-7
+    assert second.peak_force == pytest.approx(fine.force[inside, 0].max(), rel=tol)
+    assert second.max_deformation == pytest.approx(fine.deformation[inside, 0].max(), rel=tol)
+    for side in (0, 1):
+        a = fine.a[inside, side]
+        assert second.peak_acceleration[side] == pytest.approx(a[np.argmax(np.abs(a))], rel=tol)
+    # the headline (first impact) is unchanged: its peaks are at events
+    assert r.peak_force[0] == pytest.approx(fine.force[fine.t <= r.impacts[0].t_end, 0].max(),
+                                            rel=1e-12 if method == "exact" else 1e-9)

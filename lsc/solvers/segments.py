@@ -119,13 +119,31 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
     of every segment included) sampled from the dense outputs when first read."""
     N = model.N
     post = np.asarray(y_final if y_post is None else y_post)
-    spans = list(peaks)
-    if segments and (model.work or model.N > 2):
-        spans += interior_peaks(model, segments)
-    return Result.build(model.scene, rows=event_rows(model, segments, y_final),
+    rows = event_rows(model, segments, y_final)
+    turns = _turning(rows) if segments else np.zeros((0, model.K), bool)
+    inside = [j for j, turn in enumerate(turns) if turn.any() or model.work or N > 2]
+    spans = list(peaks) + interior_peaks(model, [segments[j] for j in inside], turns[inside])
+    return Result.build(model.scene, rows=rows,
                         sampler=_Sampler(model, segments, y_final, n_samples), peaks=spans,
                         events=events, contacts=contact_records(model, disc_final),
                         v_final=post[N:2 * N], method=method, tolerances=tolerances, stats=stats)
+
+
+def _turning(rows) -> np.ndarray:
+    """Per segment and contact (S, K), from :func:`event_rows`: whether the deformation turns
+    inside the segment (closing at its start, opening at its end, each by more than
+    :data:`TURNING` of the largest speed: a contact reloaded along its unloading line, whose
+    largest deformation is no event)."""
+    v = rows["v"]
+    closing = v[:, :-1] - v[:, 1:]
+    tol = TURNING * float(np.max(np.abs(v), initial=0.0))
+    return (closing[0::2] > tol) & (closing[1::2] < -tol)
+
+
+#: A deformation turns inside a segment when its closing rate changes sign by more than this
+#: fraction of the run's largest speed (less: an event located to rounding, or a turn whose
+#: crush above the segment's ends is below rounding).
+TURNING = 1e-6
 
 
 def _values(model, s, tt) -> dict:
@@ -189,34 +207,39 @@ class _Sampler:
                                      for s, tt in zip(segments, times)], times)
 
 
-def interior_peaks(model, segments, probes: int = 33, iterations: int = 40) -> list:
-    """Peaks that can lie inside a segment (a damping law's force, a chain's middle vehicle),
-    located on the dense output to the solver's accuracy: in each segment, each force and
-    acceleration is sampled at ``probes`` points and its largest sample's neighbourhood
-    searched by golden sections, all of them at once (one dense-output call per iteration for
-    every quantity), to 1e-8 of the bracket in time: the value, at a smooth maximum, to
-    rounding. Returns one span ``(t0, t1, force (K,), acceleration (N,) signed)`` per segment.
+def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 40) -> list:
+    """Peaks that can lie inside a segment (a damping law's force, a chain's middle vehicle, a
+    contact reloaded along its unloading line), located on the dense output to the solver's
+    accuracy: in each segment, each force, acceleration and deformation is sampled at
+    ``probes`` points and its largest sample's neighbourhood searched by golden sections, all
+    of them at once (one dense-output call per iteration for every quantity), to 1e-8 of the
+    bracket in time: the value, at a smooth maximum, to rounding. Returns one span ``(t0, t1,
+    force (K,), acceleration (N,) signed, deformation (K,))`` per segment; the deformation
+    only where ``turns`` (S, K) says it turns inside the segment (else -inf: its largest
+    value is at an end, which the event rows hold).
 
     (For the IF-D law of two vehicles the force is affine in a deformation that is monotone
-    inside every segment, so its peaks are at events, which the event rows hold exactly.)"""
+    inside every segment of a first impact, so its peaks are at events, which the event rows
+    hold exactly.)"""
     K, N = model.K, model.N
     golden = 0.5 * (np.sqrt(5.0) - 1.0)
 
     def quantities(s, t):
-        """Forces and accelerations (K + N, len(t)) at times ``t``."""
+        """Forces, accelerations and deformations (2K + N, len(t)) at times ``t``."""
         q = _values(model, s, np.atleast_1d(t))
-        return np.concatenate([q["force"], q["a"]])
+        return np.concatenate([q["force"], q["a"], q["deformation"]])
 
     spans = []
-    rows = np.arange(K + N)
-    for s in segments:
+    rows = np.arange(2 * K + N)
+    largest = (rows < K) | (rows >= K + N)   # forces and deformations: their largest value
+    for s, turn in zip(segments, turns):
         if not s.t1 > s.t0:
             continue
         tt = np.linspace(s.t0, s.t1, probes)
         q = quantities(s, tt)
         # forces: their largest value; accelerations: their largest magnitude, with its sign
-        j = np.where(rows < K, np.argmax(q, axis=1), np.argmax(np.abs(q), axis=1))
-        sgn = np.where(rows < K, 1.0, np.sign(q[rows, j]) + (q[rows, j] == 0))
+        j = np.where(largest, np.argmax(q, axis=1), np.argmax(np.abs(q), axis=1))
+        sgn = np.where(largest, 1.0, np.sign(q[rows, j]) + (q[rows, j] == 0))
         best = sgn * q[rows, j]
         lo, hi = tt[np.maximum(j - 1, 0)], tt[np.minimum(j + 1, probes - 1)]
         a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
@@ -234,5 +257,6 @@ def interior_peaks(model, segments, probes: int = 33, iterations: int = 40) -> l
             new = value(np.where(left, a, b))
             fa, fb = np.where(left, new, fa), np.where(left, fb, new)
         best = np.maximum(best, np.maximum(fa, fb))
-        spans.append((s.t0, s.t1, best[:K], sgn[K:] * best[K:]))
+        spans.append((s.t0, s.t1, best[:K], sgn[K:K + N] * best[K:K + N],
+                      np.where(turn, best[K + N:], -np.inf)))
     return spans
