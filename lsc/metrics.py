@@ -100,9 +100,12 @@ def in_g(acceleration, g, xp=np):
     return acceleration / xp.asarray(g, dtype=float)[..., None]
 
 
-def _take(values, index, xp):
-    """``values`` (..., M) at ``index`` (..., P) along the last axis."""
-    return xp.take_along_axis(values, index, axis=-1)
+def _pick(values, index, xp):
+    """``values`` (..., M) at ``index`` (..., P) along the last axis (as a mask, which jax.numpy
+    and NumPy take alike, batched or not, at a fraction of ``take_along_axis``'s cost on
+    small arrays)."""
+    hit = index[..., None] == xp.arange(values.shape[-1])
+    return xp.sum(xp.where(hit, values[..., None, :], 0), axis=-1)
 
 
 def headline(first, t_last, v_last, xp=np) -> dict:
@@ -122,14 +125,14 @@ def headline(first, t_last, v_last, xp=np) -> dict:
     k_vehicle = xp.arange(K + 1) - rear.astype(int)           # (..., N)
     k_vehicle = xp.clip(k_vehicle, 0, K - 1)
     flat = k_vehicle * 2 + rear.astype(int)                    # into (..., K, 2) flattened
-    hit = _take(touched, k_vehicle, xp)
+    hit = _pick(touched, k_vehicle, xp) > 0
 
     def per_vehicle(x):
-        return xp.where(hit, _take(xp.reshape(x, x.shape[:-2] + (2 * K,)), flat, xp), 0.0)
+        return xp.where(hit, _pick(xp.reshape(x, x.shape[:-2] + (2 * K,)), flat, xp), 0.0)
 
     k1 = xp.argmin(start, axis=-1)[..., None]                 # the scene's first impact
-    end1 = _take(xp.where(ended, t1, xp.asarray(t_last)[..., None]), k1, xp)[..., 0]
-    duration = xp.where(_take(touched, k1, xp)[..., 0], end1 - _take(ct, k1, xp)[..., 0], 0.0)
+    span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)
+    duration = _pick(span, k1, xp)[..., 0]
     return {"delta_v": per_vehicle(dv), "peak_acceleration": per_vehicle(first["peak_acc"]),
             "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
             "restitution": restitution(first["v_touch"], v_end, first["v_max"][..., None], xp)}

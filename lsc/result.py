@@ -429,8 +429,10 @@ def _check_finite(r: Result) -> None:
     bad = []
     for name in (*METRICS, *TOTALS):
         value = np.asarray(getattr(r, name), float)
-        allowed = np.isnan(value) & _not_applicable(r, name, value.shape)
-        if not np.all(np.isfinite(value) | allowed):
+        finite = np.isfinite(value)
+        if finite.all():
+            continue
+        if not (finite | np.isnan(value) & _not_applicable(r, name, value.shape)).all():
             bad.append(name)
     if bad:
         raise _non_finite(r.method, bad)

@@ -146,17 +146,26 @@ def _turning(rows) -> np.ndarray:
 TURNING = 1e-6
 
 
-def _values(model, s, tt) -> dict:
+def _columns(p) -> dict:
+    """The model parameters ``p`` for states given as columns (the gaps as a column)."""
+    return dict(p, gap=p["gap"][:, None])
+
+
+def _full(x, shape) -> np.ndarray:
+    """``x`` as a float array of ``shape`` (broadcast where a law gave a constant)."""
+    x = np.asarray(x, float)
+    return x if x.shape == shape else np.broadcast_to(x, shape)
+
+
+def _values(model, s, tt, pp) -> dict:
     """Segment ``s``'s state ``y`` (n, len(tt)), contact forces (K, ·), accelerations (N, ·) and
-    deformations (K, ·) at times ``tt``, in its frozen discrete state."""
-    p = model.params
-    pp = dict(p, gap=p["gap"][:, None])
+    deformations (K, ·) at times ``tt``, in its frozen discrete state (``pp``: the parameters,
+    :func:`_columns`)."""
     n = len(tt)
     yy = np.asarray(s.dense(tt), float).reshape(model.n_state, n)
     F, _, acc = model.accelerations(yy, s.disc, pp)
     D, _ = model.deformation(yy, pp)
-    return {"y": yy, "force": np.broadcast_to(np.asarray(F, float), (model.K, n)),
-            "a": np.broadcast_to(np.asarray(acc, float), (model.N, n)),
+    return {"y": yy, "force": _full(F, (model.K, n)), "a": _full(acc, (model.N, n)),
             "deformation": np.asarray(D, float)}
 
 
@@ -184,7 +193,8 @@ def event_rows(model, segments, y_final) -> dict:
     if not segments:
         return _at_rest(model, y_final)
     times = [np.array([s.t0, s.t1]) for s in segments]
-    return _rows_of(model, [_values(model, s, tt) for s, tt in zip(segments, times)], times)
+    pp = _columns(model.params)
+    return _rows_of(model, [_values(model, s, tt, pp) for s, tt in zip(segments, times)], times)
 
 
 class _Sampler:
@@ -203,7 +213,8 @@ class _Sampler:
         times = [np.linspace(s.t0, s.t1,
                              max(2, int(round(self.n_samples * (s.t1 - s.t0) / total)) + 1))
                  for s in segments]
-        return _rows_of(self.model, [_values(self.model, s, tt)
+        pp = _columns(self.model.params)
+        return _rows_of(self.model, [_values(self.model, s, tt, pp)
                                      for s, tt in zip(segments, times)], times)
 
 
@@ -223,10 +234,11 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
     hold exactly.)"""
     K, N = model.K, model.N
     golden = 0.5 * (np.sqrt(5.0) - 1.0)
+    pp = _columns(model.params)
 
     def quantities(s, t):
         """Forces, accelerations and deformations (2K + N, len(t)) at times ``t``."""
-        q = _values(model, s, np.atleast_1d(t))
+        q = _values(model, s, np.atleast_1d(t), pp)
         return np.concatenate([q["force"], q["a"], q["deformation"]])
 
     spans = []
