@@ -46,7 +46,7 @@ def first_impacts_init(closed0, v0, F0, a0, xp=np) -> dict:
     return {"contact_time": xp.where(closed0, 0.0, nan),
             "v_touch": xp.where(closed2, pairs(v0, xp), xp.nan),
             "first_end": nan,
-            "v_sep": xp.where(closed2, xp.nan, xp.nan * pairs(v0, xp)),
+            "v_sep": xp.full(xp.shape(closed0) + (2,), xp.nan),
             "peak_force": xp.where(closed0, F0, 0.0),
             "peak_acc": xp.where(closed2, pairs(a0, xp), 0.0),
             "v_max": xp.max(xp.abs(v0), axis=-1)}

@@ -270,3 +270,54 @@ def test_a_reloaded_contact_peaks_inside_its_segment_are_located_not_sampled(met
     # the headline (first impact) is unchanged: its peaks are at events
     assert r.peak_force[0] == pytest.approx(fine.force[fine.t <= r.impacts[0].t_end, 0].max(),
                                             rel=1e-12 if method == "exact" else 1e-9)
+
+
+def test_record_helpers_compile_with_jax_and_agree_with_numpy():
+    jax = pytest.importorskip("jax")
+    jax.config.update("jax_enable_x64", True)
+    jnp = jax.numpy
+    closed0 = np.array([True, False])
+    v0, F0, a0 = np.array([5.0, 0.0, 0.0]), np.array([0.0, 0.0]), np.zeros(3)
+
+    def walk(xp, closed0, v0, F0, a0):
+        rec = M.first_impacts_init(closed0, v0, F0, a0, xp)
+        rec = M.fold_peaks(rec, xp.asarray([900.0, 0.0]), xp.asarray([-0.6, 0.9, 0.0]),
+                           M.ongoing(rec, xp), xp)
+        # contact 1 closes at t = 0.05, contact 0 separates at t = 0.08
+        rec = M.event_update(rec, 0.05, xp.asarray([3.0, 2.0, 0.5]),
+                             xp.asarray([False, True]), xp.asarray([False, False]), xp)
+        rec = M.fold_peaks(rec, xp.asarray([400.0, 700.0]), xp.asarray([-0.3, -0.2, 1.1]),
+                           M.ongoing(rec, xp), xp)
+        rec = M.event_update(rec, 0.08, xp.asarray([1.0, 3.0, 1.0]),
+                             xp.asarray([False, False]), xp.asarray([True, False]), xp)
+        rec = M.fold_peaks(rec, xp.asarray([0.0, 800.0]), xp.asarray([0.0, -1.5, 1.3]),
+                           M.ongoing(rec, xp), xp)
+        return rec
+
+    ref = walk(np, closed0, v0, F0, a0)
+    got = jax.jit(lambda *a: walk(jnp, *a))(*map(jnp.asarray, (closed0, v0, F0, a0)))
+    for key in M.FIRST_KEYS:
+        np.testing.assert_array_equal(np.asarray(got[key]), ref[key], err_msg=key)
+    # by hand: contact 0 touched at 0 (5, 0) and ended at 0.08 (1, 3), its peaks before then;
+    # contact 1 touched at 0.05 (2, 0.5), still open, its peaks after its touch
+    np.testing.assert_array_equal(ref["contact_time"], [0.0, 0.05])
+    np.testing.assert_array_equal(ref["first_end"], [0.08, np.nan])
+    np.testing.assert_array_equal(ref["v_sep"][0], [1.0, 3.0])
+    np.testing.assert_array_equal(ref["peak_force"], [900.0, 800.0])
+    np.testing.assert_array_equal(ref["peak_acc"], [[-0.6, 0.9], [-1.5, 1.3]])
+    assert ref["v_max"] == 5.0
+
+
+def test_a_non_finite_series_is_refused_when_sampled():
+    r = lsc.solve(two_vehicle_scene(2), method="exact")
+    rows = {k: np.asarray(getattr(r, k)) for k in ("t", "v", "a", "deformation", "force")}
+    series = {**rows, "x": r.x, "v": np.where(r.t[:, None] > r.t[5], np.nan, r.v)}
+    lazy = lsc.Result.build(
+        r.scene, rows=rows, sampler=lambda: series, events=r.events, v_final=r.v_final,
+        method="exact", tolerances={}, stats={},
+        contacts=[{"dmax": d, "fmax": f, "dperm": p, "ec": c, "er": q} for d, f, p, c, q in
+                  zip(r.max_deformation, r.peak_force, r.permanent_deformation,
+                      r.energy_absorbed, r.energy_returned)])
+    assert lazy.delta_v.tolist() == r.delta_v.tolist()
+    with pytest.raises(lsc.SimulationError, match=r"non-finite values in v\b"):
+        lazy.v

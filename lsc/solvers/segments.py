@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..result import Event, Result
 
-__all__ = ["Step", "Segment", "run_segments", "build_result"]
+__all__ = ["Step", "Segment", "run_segments", "build_result", "event_rows", "interior_peaks"]
 
 
 @dataclass
