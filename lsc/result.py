@@ -156,7 +156,7 @@ class Result:
             rows, sampler = series, lambda: series
             r._series = series
         rows = {k: np.asarray(rows[k], float) for k in ("t", "v", "a", "deformation", "force")}
-        _check_series(method, rows)
+        _check_series(method, r.__dict__.get("_series", rows))
         r.sampler = sampler
         r.warnings = tuple(str(w) for w in r.stats.get("warnings", ()))
         r.v_final = np.asarray(v_final, float)
