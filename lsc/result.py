@@ -139,7 +139,8 @@ class Result:
         (n, K) holding both sides of every event: the ends of every segment) and ``sampler``
         (a callable returning the series as such a dict, ``x`` included; called when a series
         is first read). ``peaks``: the peaks the backend located between the rows, ``(t0, t1,
-        force (K,), acceleration (N,) signed)``; ``contacts``: per contact a dict with ``dmax,
+        force (K,), acceleration (N,) signed)`` and optionally ``deformation (K,)``, each
+        counted in the impacts that hold ``[t0, t1]``; ``contacts``: per contact a dict with ``dmax,
         fmax, dperm, ec, er`` (max and permanent deformation, force at max deformation,
         absorbed and returned energy); ``v_final`` (N,) the velocities at the last separation;
         ``failure_time`` (K,): when each contact's force first exceeded its failure force, if
