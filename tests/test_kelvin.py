@@ -202,6 +202,17 @@ def test_metrics_are_vectorised():
 
 
 # ------------------------------------------------------------------ against SciPy
+def assert_metrics_close(ours: dict, theirs: lsc.Result, rel=1e-9):
+    """Every metric within ``rel``, or ``1e-12`` of its scale where it is about zero (a
+    permanent deformation on the scale of the max crush, a time on the pulse's)."""
+    scale = {"permanent_deformation": theirs.max_deformation, "failure_time": theirs.duration}
+    for name in lsc.result.METRICS:
+        want = getattr(theirs, name)
+        ref = scale.get(name, want)
+        np.testing.assert_allclose(ours[name], want, rtol=rel,
+                                   atol=1e-12 * np.max(np.abs(ref), initial=0), err_msg=name)
+
+
 @given(zeta=st.one_of(st.floats(1e-6, 3.0), st.sampled_from([0.0, 0.5, 1.0, 1 - 1e-7, 1 + 1e-7])),
        v1=st.floats(0.5, 20.0), v2=st.floats(-5.0, 0.4), m1=st.floats(300, 5000),
        m2=st.floats(300, 5000), k=st.floats(1e4, 1e7), gap=st.sampled_from([0.0, 0.01, 0.1]),
@@ -220,10 +231,7 @@ def test_every_regime_against_scipy(zeta, v1, v2, m1, m2, k, gap, failure):
     assert [(ev.kind, ev.index) for ev in ours] == [(ev.kind, ev.index) for ev in theirs]
     for a, b in zip(ours, theirs):
         assert a.time == pytest.approx(b.time, rel=1e-9, abs=1e-12 * s.duration)
-    for name in lsc.result.METRICS:
-        np.testing.assert_allclose(getattr(r, name), getattr(s, name), rtol=1e-9,
-                                   atol=1e-12 * np.max(np.abs(getattr(s, name)), initial=0),
-                                   err_msg=name)
+    assert_metrics_close(r.metrics(), s)
 
 
 # ------------------------------------------------------------------ conservation
@@ -291,3 +299,26 @@ def test_applies_to_two_car_kelvin_scenes_only(sc, applies):
     if not applies:
         with pytest.raises(lsc.SceneError, match="Kelvin closed form does not apply"):
             kelvin.solve(m)
+
+
+# ------------------------------------------------------------------ batches
+@pytest.mark.parametrize("law, values", [
+    ({"damping": 3000.0}, {"vehicles.0.speed": [1.0, 3.0, 8.0], "vehicles.1.mass": [500.0, 1000.0, 4000.0],
+                           "contacts.0.gap": [0.0, 0.02, 0.1]}),
+    ({"restitution": 0.3}, {"vehicles.0.mass": [700.0, 1400.0, 9000.0]}),
+    ({"damping": 3000.0}, {"contacts.0.damping": [0.0, 2e4, 1e5], "contacts.0.stiffness": [1e5, 2e5, 3e5]}),
+    ({"restitution": 0.3}, {"contacts.0.restitution": [0.05, 0.5, 1.0]}),
+])
+def test_batch_equals_single_solves(law, values):
+    # a damping c is the scene's for every member, whatever its masses (ζ follows μ)
+    sc = scene(gap=0.01, failure=2e4, **law)
+    values = {p: np.asarray(v, float) for p, v in values.items()}
+    done = []
+    out = kelvin.solve_batch(model(sc), values, progress=done.append)
+    assert done == [3] and list(out["status"]) == ["ok"] * 3
+    assert set(out["metrics"]) == set(lsc.result.METRICS)
+    base = lsc.Scene.load(sc)
+    for j in range(3):
+        one = lsc.solve(base.with_values({p: float(v[j]) for p, v in values.items()}),
+                        method="scipy", rtol=1e-12)
+        assert_metrics_close({name: out["metrics"][name][j] for name in out["metrics"]}, one)

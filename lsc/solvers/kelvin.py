@@ -38,7 +38,7 @@ from ..errors import SceneError, SimulationError
 from ..result import Event, Result
 
 __all__ = ["FEATURES", "why_not", "applies", "parameters", "crush_phase", "unit_motion",
-           "metrics", "solve"]
+           "metrics", "solve", "batch_parameters", "solve_batch"]
 
 #: What this closed form solves (:meth:`lsc.model.HybridModel.features`), two vehicles only:
 #: one Kelvin contact, an initial gap, a failure force reported (no braking).
@@ -277,3 +277,73 @@ def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
     r._raise_peaks([(t_c, t_s, [float(met["peak_force"])], met["peak_acceleration"])])
     r.failure_time = np.array([fail])
     return r
+
+
+# ------------------------------------------------------------------ batches
+def batch_parameters(model, values: dict) -> dict:
+    """:func:`metrics`' inputs for every member of ``values`` (dotted scene path → (n,) array in
+    scene units): each an (n,) array. Speeds, masses, weights and the gap are written into the
+    model's numbers (:func:`lsc.parameters.batch_params`), with the damping ratio of a damping
+    ``c`` given in the scene recomputed for each member's reduced mass; any other path
+    (stiffness, damping, restitution, failure force) re-loads the scene member by member."""
+    from ..model import HybridModel
+    from ..parameters import batch_params
+
+    n = len(next(iter(values.values())))
+    p = batch_params(model, values)
+    if p is None:
+        rows = [parameters(HybridModel(model.scene.with_values(
+            {path: float(v[j]) for path, v in values.items()}))) for j in range(n)]
+        return {name: np.array([row[name] for row in rows]) for name in rows[0]}
+    base = parameters(model)
+    m, v = np.asarray(p["m"], float), np.asarray(p["v0"], float)
+    k = np.full(n, base["k"])
+    zeta = np.full(n, base["zeta"])
+    c = model.scene.contacts[0].law.damping
+    if c is not None:   # c fixed: ζ = c/(2√(kμ)) follows each member's masses
+        zeta = c / (2.0 * np.sqrt(k * m[:, 0] * m[:, 1] / (m[:, 0] + m[:, 1])))
+    return {"m1": m[:, 0], "m2": m[:, 1], "v1": v[:, 0], "v2": v[:, 1], "k": k, "zeta": zeta,
+            "gap": np.asarray(p["gap"], float)[:, 0], "g": np.full(n, base["g"]),
+            "failure_force": np.full(n, base["failure_force"])}
+
+
+def solve_batch(model, values: dict, *, progress=None) -> dict:
+    """Every member of ``values`` (dotted scene path → (n,) array in scene units, each member
+    validated by the loader) at once: ``{"metrics": {name: array with leading axis n, for every
+    name of lsc.result.METRICS}, "status": (n,) object array}``, ``"ok"`` or, for a member whose
+    numbers the closed form cannot represent, ``"SimulationError: <message>"`` of its single
+    solve. ``progress(k)`` (optional) is advanced by ``n`` at the end."""
+    from ..result import METRICS
+
+    P = batch_parameters(model, values)
+    met = metrics(**P)
+    n = P["m1"].size
+    out = {name: np.asarray(met[name], float).reshape(n, -1) if where != "scene"
+           else np.asarray(met[name], float) for name, (_, where) in METRICS.items()}
+    status = np.full(n, "ok", dtype=object)
+    bad = np.zeros(n, bool)
+    for name, value in out.items():
+        if name != "failure_time":   # (NaN there: never failed)
+            bad |= ~np.all(np.isfinite(value.reshape(n, -1)), axis=1)
+    for j in np.flatnonzero(bad):
+        status[j] = _solve_member(model, values, j, out)
+    if progress is not None:
+        progress(n)
+    return {"metrics": out, "status": status}
+
+
+def _solve_member(model, values: dict, j: int, out: dict) -> str:
+    """Member ``j`` solved alone (as ``lsc.solve`` would): its metrics into ``out`` and
+    ``"ok"``, or NaN and the error it raises (``"SimulationError: ..."``)."""
+    from ..model import HybridModel
+
+    try:
+        r = solve(HybridModel(model.scene.with_values(
+            {path: float(v[j]) for path, v in values.items()})), n_samples=2)
+    except SimulationError as exc:
+        for name in out:
+            out[name][j] = np.nan
+        return f"SimulationError: {exc}"
+    for name in out:
+        out[name][j] = getattr(r, name)
+    return "ok"
