@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import SceneError, SimulationError
 from ..result import Event, Result
+from .base import describe
 
 __all__ = ["FEATURES", "why_not", "applies", "parameters", "crush_phase", "unit_motion",
            "metrics", "solve", "batch_parameters", "solve_batch"]
@@ -52,7 +53,7 @@ def why_not(model) -> str | None:
         return f"it solves exactly 2 vehicles, the scene has {model.N}"
     extra = sorted(model.features() - FEATURES)
     if extra:
-        return f"it does not solve {', '.join(extra)}"
+        return "; ".join(f"it does not solve {describe(f)}" for f in extra)
     if "law:kelvin" not in model.features():
         return "its contact law is not Kelvin's"
     if not model.params["v0"][0] > model.params["v0"][1]:
