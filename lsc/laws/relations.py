@@ -14,8 +14,8 @@ def kelvin_restitution(zeta):
     z = np.asarray(zeta, float)
     with np.errstate(invalid="ignore", divide="ignore"):
         zu, zo = np.clip(z, 0.0, 1.0), np.maximum(z, 1.0)
-        under = np.exp(-2 * zu * np.arccos(zu) / np.sqrt(1 - zu**2))
-        over = np.exp(-2 * zo * np.arccosh(zo) / np.sqrt(zo**2 - 1))
+        under = np.exp(-2 * zu * np.arccos(zu) / np.sqrt((1 - zu) * (1 + zu)))
+        over = np.exp(-2 * zo * np.arccosh(zo) / np.sqrt((zo - 1) * (zo + 1)))
     return np.where(z < 1, under, np.where(z > 1, over, np.exp(-2.0)))
 
 

@@ -18,21 +18,24 @@ from .. import metrics as _metrics
 from ..model import HybridModel
 from ..result import Event, Result
 from ..scene import Restitution
+from . import kelvin
 from .base import Backend
 
 __all__ = ["BACKEND", "applies", "why_not", "parameters", "metrics", "solve", "solve_batch"]
 
 
-#: The closed form's declaration: two vehicles, linear loading from the origin, a straight
-#: unloading line, a gap, a failure force reported; no braking, no post-failure branch.
+#: What the IF-D closed form solves: linear loading from the origin, a straight unloading line.
+IFD_FEATURES = frozenset({"law:ifd", "loading:linear", "unloading:restitution",
+                          "unloading:stiffness", "effect:failure", "gap:open"})
+
+#: The closed form's declaration: two vehicles, one contact, either the IF-D law with linear
+#: loading from the origin and a straight unloading line, or the Kelvin law
+#: (:mod:`lsc.solvers.kelvin`); a gap; a failure force reported; no braking, no post-failure
+#: branch.
 BACKEND = Backend(
     name="closed-form", module=__name__, options=("t_end", "n_samples"), exact=True, cost=0.0,
-    vehicles=(2, 2),
-    solves=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
-                      "unloading:stiffness", "effect:failure", "gap:open"}),
-    batch=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
-                     "unloading:stiffness", "effect:failure", "gap:open"}),
-    summary="closed form of the linear spring with a straight unloading line")
+    vehicles=(2, 2), solves=IFD_FEATURES | kelvin.FEATURES, batch=IFD_FEATURES | kelvin.FEATURES,
+    summary="closed forms: the linear spring with a straight unloading line, and the Kelvin law")
 
 
 def why_not(scene) -> str | None:
@@ -176,7 +179,9 @@ class _Motion:
 def solve(model, *, t_end=None, n_samples: int = 1000) -> Result:
     """Exact solution of a closed-form scene as a :class:`Result`: its metrics from the
     closed-form first impact, its series (on a grid that includes every event time) computed
-    when first read."""
+    when first read. A Kelvin scene is solved by :func:`lsc.solvers.kelvin.solve`."""
+    if "law:kelvin" in model.features():
+        return kelvin.solve(model, t_end=t_end, n_samples=n_samples)
     start = time.perf_counter()
     scene = model.scene
     P = parameters(scene)
@@ -219,7 +224,10 @@ def solve_batch(model, values: dict, *, progress=None) -> dict:
     units, every member valid) of ``model``'s closed-form scene, in one vectorised evaluation of
     :func:`metrics`: ``{"metrics": {name: (n, ...) array for every name of lsc.result.METRICS},
     "status": (n,) object array of "ok"}`` (a closed-form member always completes).
-    ``progress(k)``: called as ``k`` members finish."""
+    ``progress(k)``: called as ``k`` members finish. Kelvin scenes:
+    :func:`lsc.solvers.kelvin.solve_batch`."""
+    if "law:kelvin" in model.features():
+        return kelvin.solve_batch(model, values, progress=progress)
     from ..parameters import batch_params
     from ..result import METRICS
 
