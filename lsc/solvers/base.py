@@ -246,11 +246,13 @@ class Backend:
         self.check_options(options)
         return self.implementation().solve(model, **options)
 
-    def solve_batch(self, model, values: dict, **options) -> dict:
+    def solve_batch(self, model, values: dict, *, progress=None, **options) -> dict:
         """Solve every member of ``values`` (dotted scene path → (n,) array in scene units,
         each member already validated) of ``model``'s scene: a dict with ``metrics`` (name →
         array, leading axis n, :data:`lsc.result.METRICS`) and ``status`` ((n,) object array:
-        ``"ok"`` or ``"SimulationError: ..."``, the message a single solve raises)."""
+        ``"ok"`` or ``"SimulationError: ..."``, the message a single solve raises).
+        ``progress``: optional callable ``progress(k)``, advanced by ``k`` members as they
+        finish."""
         self.check(model, batch=True)
         self.check_options(options, batch=True)
-        return self.implementation().solve_batch(model, values, **options)
+        return self.implementation().solve_batch(model, values, progress=progress, **options)
