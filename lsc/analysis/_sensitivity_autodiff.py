@@ -172,7 +172,8 @@ def _by_diffrax(sc, model, prms, *, integrator, rtol, atol, max_steps, max_event
             derivs[k][..., low] = derivs2[k][..., low]
         stats["wall_time"] += stats2["wall_time"]
         stats["one_sided"] = [prms[j].path for j in low]
-    return values, derivs, stats, f"forward-mode autodiff through the diffrax solve ({integrator}, rtol {rtol:g})"
+    how = f"forward-mode autodiff through the diffrax solve ({integrator}, rtol {rtol:g})"
+    return values, derivs, stats, how
 
 
 def _copy(tree):

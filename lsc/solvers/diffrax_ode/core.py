@@ -49,10 +49,10 @@ from jax import lax  # noqa: E402
 from ...contact import STATUS  # noqa: E402
 from ...errors import SceneError  # noqa: E402
 from .dips import EVENT_TOL, THETA, EventSearch  # noqa: E402
-from .first_impacts import (FIRST_KEYS, carry_metrics, first_event, first_impacts_init,  # noqa: E402
-                            fold_first, impact_ongoing)
+from .first_impacts import (FIRST_KEYS, carry_metrics, first_event,  # noqa: E402
+                            first_impacts_init, fold_first, impact_ongoing)
 from .peaks import PeakSearch  # noqa: E402
-from .wrappers import INTEGRATORS, SOLVERS, _Stash, _Unrolled, with_tols  # noqa: E402
+from .wrappers import INTEGRATORS, SOLVERS, Stash, Unrolled, with_tols  # noqa: E402
 
 __all__ = ["STATUS_CODES", "RECORD_FULL", "SegmentLoop", "segment_loop", "check_settings",
            "status_message"]
@@ -150,7 +150,7 @@ class SegmentLoop(EventSearch, PeakSearch):
     (``integrator``, ``max_steps`` per segment, ``max_events``, ``capacity``: nodes of the dense
     record). ``differentiable``: step with diffrax's own solver with a plain ``lax`` stage loop,
     which ``jax.jvp`` can go through (its default checkpointed loop is a ``custom_vjp``, which
-    ``jvp`` refuses); otherwise explicit tableaus are unrolled (:class:`~.wrappers._Unrolled`)."""
+    ``jvp`` refuses); otherwise explicit tableaus are unrolled (:class:`~.wrappers.Unrolled`)."""
 
     def __init__(self, model, integrator: str, max_steps: int, max_events: int,
                  capacity: int | None = None, differentiable: bool = False):
@@ -158,7 +158,7 @@ class SegmentLoop(EventSearch, PeakSearch):
         self.integrator = integrator
         base = SOLVERS[integrator]()
         # explicit tableaus: unrolled stages (diffrax's own loop is slow under vmap)
-        self.solver = _Unrolled(base) if isinstance(base, diffrax.AbstractERK) else base
+        self.solver = Unrolled(base) if isinstance(base, diffrax.AbstractERK) else base
         if differentiable:
             self.solver = SOLVERS[integrator](scan_kind="lax")
         self.max_steps = int(max_steps)
@@ -270,7 +270,7 @@ class SegmentLoop(EventSearch, PeakSearch):
         over_by = jnp.where(has_t_end, jnp.maximum(crash, t_end), crash)
         inner = with_tols(self.solver, rtol, atol)
         track = (not record) and self.interior
-        stepper = _Stash(inner, self._peaks if track else None, self._point if track else None,
+        stepper = Stash(inner, self._peaks if track else None, self._point if track else None,
                          self._hidden)
         y0, disc0 = m.initial(p, jnp)
         disc0 = canon(disc0)

@@ -4,8 +4,9 @@ event (:func:`metrics_jacobian`; used by :func:`lsc.analysis.sensitivity`).
 
 An event time depends on the parameters; the loop locates each event by Newton's method on the
 step's interpolant and polishes it with one Newton step on the integrator's own solution, so the
-tangent that comes out of the polish is the implicit function theorem's ``dt*/dp = -(∂g/∂p) / ġ``:
-the derivative of where the event *is*, not of where the search happened to stop.
+tangent that comes out of the polish is the implicit function theorem's
+``dt*/dp = -(∂g/∂p) / ġ``: the derivative of where the event *is*, not of where the search
+happened to stop.
 """
 
 from __future__ import annotations

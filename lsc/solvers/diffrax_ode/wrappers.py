@@ -1,8 +1,8 @@
 """The diffrax solvers the backend steps with, and the wrappers around them.
 
-The explicit tableaus (Tsit5, Dopri5, Dopri8) are stepped by :class:`_Unrolled`, their stages
+The explicit tableaus (Tsit5, Dopri5, Dopri8) are stepped by :class:`Unrolled`, their stages
 unrolled at trace time (diffrax's stage loop is ~10 times slower under ``vmap``); Kvaerno5 is
-diffrax's own. :class:`_Stash` keeps the last accepted step for the event search, folds the
+diffrax's own. :class:`Stash` keeps the last accepted step for the event search, folds the
 peaks of the steps (metrics solves) and rejects a step an event crosses unseen.
 """
 
@@ -16,7 +16,8 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import optimistix as optx  # noqa: E402
 
-__all__ = ["INTEGRATORS", "SOLVERS", "with_tols"]
+__all__ = ["INTEGRATORS", "SOLVERS", "with_tols", "fold_peaks", "Wrapping", "Unrolled",
+           "Stash"]
 
 INTEGRATORS = ("Tsit5", "Dopri5", "Dopri8", "Kvaerno5")
 #: The diffrax solver class of each integrator name.
@@ -38,7 +39,7 @@ def fold_peaks(peaks, F, a):
     return jnp.maximum(pF, F), jnp.where(jnp.abs(a) > jnp.abs(pa), a, pa)
 
 
-class _Wrapping(diffrax.AbstractAdaptiveSolver):
+class Wrapping(diffrax.AbstractAdaptiveSolver):
     """A solver that takes its terms, interpolant and orders from the solver it wraps."""
 
     solver: diffrax.AbstractSolver
@@ -65,7 +66,7 @@ class _Wrapping(diffrax.AbstractAdaptiveSolver):
         return self.solver.func(terms, t0, y0, args)
 
 
-class _Unrolled(_Wrapping):
+class Unrolled(Wrapping):
     """An explicit Runge–Kutta step of a diffrax solver's own Butcher tableau, interpolant, order
     and error estimate, with its stages unrolled at trace time.
 
@@ -109,16 +110,17 @@ class _Unrolled(_Wrapping):
         return terms.vf(t0, y0, args)
 
 
-class _Stash(_Wrapping):
+class Stash(Wrapping):
     """A solver that keeps its last accepted step ``(t0, t1, y0, dense info)`` in its state
-    (diffrax keeps the old state on a rejected step): what :meth:`~.dips.EventSearch._locate` works on.
+    (diffrax keeps the old state on a rejected step): what
+    :meth:`~.dips.EventSearch._locate` works on.
 
     With ``peaks`` (a function ``(t0, t1, lo, hi, dense, args) -> (F, a)``, the peaks on
     ``[lo, hi]`` of a step's interpolant) it also folds the peaks of every accepted step but the
     last into its state (the last one may run past the event). With ``hidden`` (a function
     ``(t0, t1, y1, dense, args) -> bool``: an armed event crosses zero and back inside the step,
-    :meth:`~.dips.EventSearch._hidden`) it rejects such a step (infinite error: the controller retries it
-    shorter), so that no step is accepted across a crossing its ends do not show."""
+    :meth:`~.dips.EventSearch._hidden`) it rejects such a step (infinite error: the controller
+    retries it shorter), so that no step is accepted across a crossing its ends do not show."""
 
     solver: diffrax.AbstractSolver
     peaks: object = eqx.field(static=True, default=None)
