@@ -9,7 +9,6 @@ are loaded on first use (PEP 562).
 
 from __future__ import annotations
 
-
 from ..base import Backend
 from ..scipy_ode import FEATURES
 
