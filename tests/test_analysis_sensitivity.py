@@ -305,3 +305,25 @@ def test_bad_finite_difference_step_is_refused(step):
 def test_unknown_keyword_is_a_type_error_naming_it():
     with pytest.raises(TypeError, match="unexpected keyword argument 'rtoll'"):
         sensitivity(paper_scene(), rtoll=1e-13)
+
+
+def test_sensitivity_reaches_the_diffrax_backend_only_by_its_public_names():
+    """The analysis modules read nothing of the diffrax backend but the names its public
+    surface (``lsc.solvers.diffrax_ode.api.__all__``) gives."""
+    import ast
+    from pathlib import Path
+
+    from lsc.solvers.diffrax_ode import api
+
+    folder = Path(lsc.__file__).parent / "analysis"
+    used = {}
+    for path in folder.glob("*sensitivity*.py"):
+        tree = ast.parse(path.read_text())
+        aliases = {a.asname or a.name for node in ast.walk(tree)
+                   if isinstance(node, ast.ImportFrom) and (node.module or "").endswith("solvers")
+                   for a in node.names if a.name == "diffrax_ode"}
+        used[path.name] = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)
+                           and isinstance(node.value, ast.Name) and node.value.id in aliases}
+    assert any(used.values())   # the autodiff path does use the backend
+    for name, attrs in used.items():
+        assert attrs <= set(api.__all__), (name, attrs - set(api.__all__))

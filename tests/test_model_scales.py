@@ -388,8 +388,8 @@ def test_batch_steps_and_tolerances_in_a_batch_of_discrete_states_are_each_membe
 def dx():
     """The diffrax backend's implementation module (float64 switched on by importing it)."""
     pytest.importorskip("diffrax")
-    from lsc.solvers.diffrax_ode import _impl
-    return _impl
+    from lsc.solvers.diffrax_ode import core
+    return core
 
 
 def _close(a, b, scale=None, rtol=1e-15):
@@ -432,7 +432,7 @@ def test_frames_steps_tolerances_and_end_of_crash_on_jax_numpy_are_the_diffrax_b
     import jax.numpy as jnp
     model = _model(seed)
     p = _jnp_params(model)
-    core = dx._Core(model, "Dopri8", 16, 16)
+    core = dx.SegmentLoop(model, "Dopri8", 16, 16)
     rng = np.random.default_rng(seed + 2000)
     v_scale, _, _, t_load = dx._scales(p)
     for y in _states(model, rng, 3):
