@@ -36,7 +36,8 @@ from ..scene import Scene
 from ._common import path_quantity
 
 __all__ = ["sample", "flatten_distributions", "SAMPLINGS", "inputs", "Inputs",
-           "rank_correlation", "unit_points", "map_points", "apply_functions", "warn_sobol_count"]
+           "rank_correlation", "unit_points", "map_points", "apply_functions", "warn_sobol_count",
+           "design_points", "correlate", "check_sampling", "correlated_pairs"]
 
 _KINDS = ("normal", "uniform", "triangular", "choice", "function")
 _EXTRA = {"normal": ("min", "max")}
@@ -218,14 +219,15 @@ def _marginal(base: Scene, path: str, kind: str, args, extra: dict):
     return _Choice(np.array([path_quantity(v, base, path) for v in args]))
 
 
-def _check_count(n, seed) -> None:
-    """``n`` a positive whole number within :data:`lsc.sweep.MAX_MEMBERS`, ``seed`` ``None`` or
-    a whole number >= 0 (``SceneError`` naming them otherwise)."""
+def _check_count(n, seed, in_memory: bool = True) -> None:
+    """``n`` a positive whole number (within :data:`lsc.sweep.MAX_MEMBERS` if ``in_memory``),
+    ``seed`` ``None`` or a whole number >= 0 (``SceneError`` naming them otherwise)."""
     from ..sweep import check_members
 
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise SceneError("n", f"the number of samples must be a positive integer, got {n!r}")
-    check_members(int(n), "n")
+    if in_memory:
+        check_members(int(n), "n")
     if seed is not None and (isinstance(seed, (bool, np.bool_))
                              or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise SceneError("seed", "the seed must be a whole number >= 0 (or None: a fresh one "
@@ -270,9 +272,7 @@ def sample(scene, distributions: dict, n: int, *, seed=None, sampling: str = "ra
     their order. A Sobol' ``n`` that is not a power of two is kept, with a warning.
     """
     _check_count(n, seed)
-    if sampling not in SAMPLINGS:
-        raise SceneError("sampling", f"the sampling design is one of {', '.join(SAMPLINGS)}; "
-                                     f"got {sampling!r}")
+    check_sampling(sampling)
     spec = inputs(scene, distributions)
     rng = np.random.default_rng(seed)
     if sampling == "random" and spec.rank_correlation is None:
@@ -281,6 +281,13 @@ def sample(scene, distributions: dict, n: int, *, seed=None, sampling: str = "ra
         u = unit_points(sampling, int(n), len(spec.marginals), rng, spec.rank_correlation)
         out = map_points(spec, u)
     return apply_functions(spec, out, rng, int(n))
+
+
+def check_sampling(sampling) -> None:
+    """``SceneError`` unless ``sampling`` is one of :data:`SAMPLINGS`."""
+    if sampling not in SAMPLINGS:
+        raise SceneError("sampling", f"the sampling design is one of {', '.join(SAMPLINGS)}; "
+                                     f"got {sampling!r}")
 
 
 def map_points(spec: Inputs, u: np.ndarray) -> dict:
@@ -310,25 +317,37 @@ def apply_functions(spec: Inputs, out: dict, rng, n: int) -> dict:
 def unit_points(sampling: str, n: int, d: int, rng, rank_correlation=None) -> np.ndarray:
     """``n`` points (n, d) of the unit hypercube for a design of :data:`SAMPLINGS`, with the
     requested Spearman rank correlation between columns (a Gaussian copula) if one is given."""
-    from scipy.special import ndtr, ndtri
     from scipy.stats import qmc
 
     if d == 0:
         return np.empty((n, 0))
     if sampling == "random":
-        z = rng.standard_normal((n, d))
+        return correlate(rng.standard_normal((n, d)), rank_correlation, normal=True)
+    if sampling == "sobol":
+        warn_sobol_count(n, "n")
+        engine = _qmc_engine(qmc.Sobol, d, rng, scramble=True)
     else:
-        if sampling == "sobol":
-            warn_sobol_count(n, "n")
-            engine = _qmc_engine(qmc.Sobol, d, rng, scramble=True)
-        else:
-            engine = _qmc_engine(qmc.LatinHypercube, d, rng)
-        with warnings.catch_warnings():  # (the count was dealt with above)
-            warnings.filterwarnings("ignore", message=".*balance properties of Sobol")
-            u = engine.random(n)
-        if rank_correlation is None:
-            return u
-        z = ndtri(np.clip(u, _U_MIN, _U_MAX))
+        engine = _qmc_engine(qmc.LatinHypercube, d, rng)
+    return correlate(design_points(engine, n), rank_correlation)
+
+
+def design_points(engine, n: int) -> np.ndarray:
+    """The next ``n`` points of a :mod:`scipy.stats.qmc` engine (a Sobol' count that is not a
+    power of two is warned about by the caller, once)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*balance properties of Sobol")
+        return engine.random(n)
+
+
+def correlate(points: np.ndarray, rank_correlation=None, normal: bool = False) -> np.ndarray:
+    """Points of the unit hypercube (or, with ``normal``, standard normal scores) with the
+    requested Spearman rank correlation between columns, by a Gaussian copula (each row on its
+    own); unchanged unit points where ``rank_correlation`` is ``None``."""
+    from scipy.special import ndtr, ndtri
+
+    if rank_correlation is None and not normal:
+        return points
+    z = points if normal else ndtri(np.clip(points, _U_MIN, _U_MAX))
     if rank_correlation is not None:
         z = z @ np.linalg.cholesky(_normal_scores(rank_correlation)).T
     return ndtr(z)

@@ -13,8 +13,9 @@ from ..scene import Scene
 from ._common import SummaryHTML, check_keywords
 from .sampling import (SAMPLINGS, Inputs, apply_functions, correlated_pairs,
                        flatten_distributions, inputs, map_points, rank_correlation, sample,
-                       unit_points, warn_sobol_count)
-from .sampling import _check_count  # noqa: F401  (re-exported for global_sensitivity)
+                       unit_points, warn_sobol_count, check_sampling)
+from .sampling import _check_count  # (also re-exported for global_sensitivity)
+from .blocks import BlockSampler
 
 __all__ = ["monte_carlo", "sample", "MonteCarlo", "flatten_distributions", "METRICS",
            "SAMPLINGS", "inputs", "Inputs", "rank_correlation", "unit_points", "map_points",
@@ -72,7 +73,7 @@ class MonteCarlo(SummaryHTML):
         names = [v.name for v in s.vehicles]
         units = self.sweep.units
         head = " ".join(f"{f'p{q:g}':>12}" for q in self.q)
-        n_ok = int(np.sum(self.ok))
+        n_ok = self.n - int(self.sweep.stats["failed"])
         design = {"random": "", "sobol": ", scrambled Sobol' points",
                   "lhs": ", Latin hypercube"}[self.sampling]
         lines = [f"{s.name}: Monte Carlo, {self.n} samples (seed {self.seed}{design}), "
@@ -80,6 +81,8 @@ class MonteCarlo(SummaryHTML):
                  "", "sampled: " + ", ".join(self.samples), *self._correlation_lines(), "",
                  f"{'metric':<34} {'unit':>6} {head}"]
         for name, (label, per) in METRICS.items():
+            if name not in self.percentiles:
+                continue
             p = self.percentiles[name]
             unit = "g" if name == "peak_acceleration_g" else units[name]
             if per == "scene":
@@ -91,12 +94,20 @@ class MonteCarlo(SummaryHTML):
             for lab, vals in rows:
                 lines.append(f"{lab:<34} {unit:>6} " + " ".join(f"{v:>12.5g}" for v in vals))
         if n_ok < self.n:
-            reasons, counts = np.unique(self.sweep.status[~self.ok].astype(str), return_counts=True)
             lines.append("")
             lines.append("failed members:")
-            for r, c in sorted(zip(reasons, counts), key=lambda rc: -rc[1])[:5]:
+            for r, c in self._failures()[:5]:
                 lines.append(f"  {c} x {r}")
         return "\n".join(lines)
+
+    def _failures(self) -> list:
+        """``(reason, count)`` of the failed members, most frequent first (a study written to
+        a file counted them as it ran)."""
+        if hasattr(self.sweep, "reasons"):
+            counts = self.sweep.reasons.items()
+        else:
+            counts = zip(*np.unique(self.sweep.status[~self.ok].astype(str), return_counts=True))
+        return sorted(counts, key=lambda rc: -rc[1])
 
     def _correlation_lines(self) -> list[str]:
         """The requested rank correlations, one line (none when independent)."""
@@ -149,7 +160,8 @@ def _default_index(scene: Scene, metric: str) -> int:
 
 
 def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str = "random",
-                method: str = "auto", progress=None, percentiles=(5, 50, 95),
+                method: str = "auto", progress=None, percentiles=(5, 50, 95), metrics=None,
+                out=None, overwrite: bool = False, executor=None, task_size: int | None = None,
                 **options) -> MonteCarlo:
     """Sample the distributions, solve every member with :func:`lsc.sweep`, and summarise.
 
@@ -158,7 +170,7 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
     scene : dict, path or Scene
         The base scene.
     distributions : dict
-        Dotted path → spec (see the module docstring).
+        Dotted path → spec (see :mod:`lsc.analysis.sampling`).
     n : int
         Number of samples.
     seed : int or None
@@ -173,29 +185,59 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
         Progress bar (``None``: when stderr is a terminal).
     percentiles : sequence of float
         Percentiles reported [%] (default 5, 50, 95).
+    metrics : sequence of str, optional
+        The metrics kept per member (default: all in memory; with ``out``, those of
+        :data:`METRICS`). The percentiles are those of :data:`METRICS` kept.
+    out : path, optional
+        Stream the study to this Parquet file (:func:`lsc.sweep`'s ``out``): the samples are
+        drawn a block at a time (:mod:`lsc.analysis.blocks`; with ``sampling="random"`` not the
+        values of an in-memory run of the same seed), nothing is held per member, and the
+        percentiles are exact, read back from the file a column at a time. ``overwrite``: replace
+        an existing file.
+    executor, task_size
+        As for :func:`lsc.sweep`: where the tasks run, and their size.
     **options
         Solver options, as for :func:`lsc.solve`.
 
     Returns
     -------
     MonteCarlo
-        Samples, the sweep, and the percentiles of ΔV, peak acceleration [g], pulse duration and
-        peak force over the members that were solved.
+        Samples, the sweep (a :class:`lsc.parquet.SweepFile` with ``out``), and the percentiles
+        of ΔV, peak acceleration [g], pulse duration and peak force over the members solved.
     """
-    from ..sweep import sweep
+    from ..sweep import Arrays, study
 
-    check_keywords("monte_carlo", options, ("seed", "method", "progress", "percentiles"))
+    check_keywords("monte_carlo", options, ("seed", "method", "progress", "percentiles",
+                                            "metrics", "out", "overwrite", "executor",
+                                            "task_size"))
     base = Scene.load(scene)
     q = tuple(float(x) for x in np.atleast_1d(percentiles))
     if not q or any(not 0 <= x <= 100 for x in q):
         raise SceneError("percentiles", f"percentiles lie in [0, 100], got {percentiles!r}")
-    samples = sample(base, distributions, n, seed=seed, sampling=sampling)
+    if out is None:
+        samples = sample(base, distributions, n, seed=seed, sampling=sampling)
+        members = Arrays(samples)
+    else:
+        _check_count(n, seed, in_memory=False)
+        check_sampling(sampling)
+        members = BlockSampler(inputs(base, distributions), sampling, n, seed)
+        seed = members.seed
+        metrics = tuple(METRICS) if metrics is None else metrics
     correlation = correlated_pairs(inputs(base, distributions))
-    sw = sweep(base, samples, method=method, progress=progress, **options)
-    pct = {}
-    ok = sw.ok
-    for name in METRICS:
-        arr = np.asarray(sw.metrics[name])[ok]
-        pct[name] = (np.percentile(arr, q, axis=0) if arr.shape[0]
-                     else np.full((len(q),) + arr.shape[1:], np.nan))
+    sw = study(base, members, (int(n),), method=method, options=options, controls={},
+               metrics=metrics, out=out, overwrite=overwrite, executor=executor,
+               task_size=task_size, progress=progress)
+    if out is not None:
+        samples = sw.params_values
+    pct = {name: _percentiles(sw, name, q) for name in METRICS if name in sw.metrics}
     return MonteCarlo(base, samples, sw, q, pct, seed, int(n), sampling, correlation)
+
+
+def _percentiles(sw, name: str, q: tuple) -> np.ndarray:
+    """Percentiles ``q`` of metric ``name`` over the solved members of a sweep (in memory, or
+    read back from its file a column at a time)."""
+    if hasattr(sw, "percentiles"):
+        return sw.percentiles(name, q)
+    arr = np.asarray(sw.metrics[name])[sw.ok]
+    return (np.percentile(arr, q, axis=0) if arr.shape[0]
+            else np.full((len(q),) + arr.shape[1:], np.nan))
