@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import os
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +31,7 @@ from .scene import Scene, UnloadingStiffness
 from . import parameters, solvers
 
 __all__ = ["Task", "solve_task", "run_tasks", "task_size", "slots", "window", "is_dask",
-           "MAX_TASK", "MIN_TASK", "DASK_RETRIES"]
+           "executor_from", "MAX_TASK", "MIN_TASK", "DASK_RETRIES"]
 
 #: Most members in one chunk of a batch path: its metrics take a few hundred bytes per member,
 #: so a chunk holds tens of MB at most (and a chunk is long enough to dwarf a scheduler's
@@ -284,3 +285,38 @@ def _finish(item, consume, progress) -> None:
     consume(start, task, future.result())
     if progress is not None:
         progress(len(task))
+
+
+@contextmanager
+def executor_from(workers: int | None = None, scheduler: str | None = None,
+                  dask: bool = False):
+    """The executor the CLI options ask for, closed on exit: ``None`` (this process; also for
+    ``workers=1``), a ``ProcessPoolExecutor`` of ``workers`` processes, or a Dask client: of the
+    running cluster at ``scheduler`` (``tcp://host:port``), or with ``dask`` of a new
+    ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core)."""
+    if scheduler is not None and workers is not None:
+        raise SceneError("--workers", "--workers sets the processes of this machine (or of "
+                                      "--dask's local cluster); a running cluster "
+                                      "(--scheduler) has the workers it was started with")
+    if scheduler is None and not dask:
+        if workers is None or workers == 1:
+            yield None
+            return
+        from concurrent.futures import ProcessPoolExecutor
+        with ProcessPoolExecutor(workers) as pool:
+            yield pool
+        return
+    try:
+        import distributed
+    except ModuleNotFoundError:
+        raise SceneError("--scheduler" if scheduler else "--dask",
+                         "running on Dask needs dask.distributed: pip install 'lsc[dask]'") \
+            from None
+    if scheduler is not None:
+        with distributed.Client(scheduler) as client:
+            yield client
+        return
+    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        yield client

@@ -2,7 +2,9 @@
 
     lsc run [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--out DIR]
             [--no-plots]
-    lsc sweep [SCENE] --param PATH=VALUES [--param ...] [--grid] [--metric M] [--out DIR]
+    lsc sweep [SCENE] --param PATH=VALUES [--param ...] [--grid] [--metric M]
+              [--out DIR|FILE.parquet] [--workers N] [--dask] [--scheduler tcp://HOST:PORT]
+              [--task-size N] [--metrics M,...]
     lsc scenes
     lsc report [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--n N]
                [--seed S] [--out FILE]
@@ -278,25 +280,85 @@ def _add_sweep(sub) -> None:
     p.add_argument("--index", type=int, default=None,
                    help="which vehicle/contact of a per-vehicle/contact metric to plot "
                         "(default: the last vehicle, the first contact)")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                   help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR|FILE.parquet",
+                   help=f"output folder (default: {DEFAULT_OUT}/); a FILE.parquet streams every "
+                        "member into that one file as it is solved (no CSV, no plot; memory "
+                        "bounded whatever the number of members)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figure")
     p.add_argument("--parquet", action="store_true",
                    help="also write sweep.parquet (the same table; needs the [frames] extra)")
+    add_study_options(p)
     add_overwrite_option(p)
     p.set_defaults(func=_cmd_sweep)
 
 
+def add_study_options(p) -> None:
+    """Declare the options of a study in chunks (``lsc sweep``, ``lsc mc``): where the chunks
+    run and which metrics are kept."""
+    p.add_argument("--workers", type=_positive_int, metavar="N",
+                   help="run the chunks on N worker processes of this machine (with --dask: "
+                        "a local Dask cluster of N workers); default: this process")
+    p.add_argument("--dask", action="store_true",
+                   help="run the chunks on a new local Dask cluster (needs the [dask] extra)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the chunks on the running Dask cluster of this scheduler")
+    p.add_argument("--task-size", type=_positive_int, metavar="N",
+                   help="members per chunk (default: chosen from the members and workers)")
+    p.add_argument("--metrics", type=_metric_list, metavar="M,M,...",
+                   help="with --out FILE.parquet: the metrics written (default: all for lsc "
+                        "sweep, those reported for lsc mc)")
+
+
+def study_settings(args) -> dict:
+    """The keywords of :func:`lsc.sweep` / ``monte_carlo`` that :func:`add_study_options` set
+    (the executor apart: :func:`lsc.chunks.executor_from`)."""
+    streamed = is_parquet_file(args.out)
+    if args.metrics is not None and not streamed:
+        raise SceneError("--metrics", "--metrics selects the columns of --out FILE.parquet; "
+                                      "give one (or leave --metrics out)")
+    return {"task_size": args.task_size, "metrics": args.metrics}
+
+
+def is_parquet_file(out) -> bool:
+    """True when ``--out`` names a Parquet file (the study is streamed into it)."""
+    return out is not None and str(out).lower().endswith(".parquet")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
+
+
+def _metric_list(text: str) -> list[str]:
+    from .result import METRICS
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    bad = [n for n in names if n not in METRICS]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"unknown metric {bad[0] if bad else text!r}; the "
+                                         f"metrics are {', '.join(METRICS)}")
+    return names
+
+
 def _cmd_sweep(args) -> int:
+    from .chunks import executor_from
     from .sweep import sweep
     scene = resolve_scene(args.scene)
     params = dict(_sweep_values(t) for t in args.param)
     opts = {k: v for k, v in (("rtol", args.rtol), ("dt", args.dt)) if v is not None}
+    opts.update(study_settings(args))
+    if is_parquet_file(args.out):
+        return _stream_sweep(args, scene, params, opts)
     out = Path(args.out)
     files = [out / "sweep.csv", out / "sweep.png", out / "sweep.parquet"]
     refuse_existing(files, args.overwrite)
     require_parquet(args.parquet)
-    s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
+    with executor_from(args.workers, args.scheduler, args.dask) as executor:
+        s = sweep(scene, params, method=args.method, grid=args.grid, executor=executor, **opts)
     # (each writer fills the temporary file write_files made: that one checked the targets)
     writers = {out / "sweep.csv": lambda file: s.to_csv(file, overwrite=True)}
     if args.parquet:
@@ -310,6 +372,22 @@ def _cmd_sweep(args) -> int:
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
           + (f", {bad} failed (see the status column)" if bad else ""))
     print(f"written to {folder(args.out)}: " + ", ".join(p.name for p in written))
+    return 0
+
+
+def _stream_sweep(args, scene, params, opts) -> int:
+    """``lsc sweep --out FILE.parquet``: every member streamed into one Parquet file."""
+    from .chunks import executor_from
+    from .sweep import sweep
+    refuse_existing([Path(args.out)], args.overwrite)
+    require_parquet()
+    with executor_from(args.workers, args.scheduler, args.dask) as executor:
+        f = sweep(scene, params, method=args.method, grid=args.grid, executor=executor,
+                  out=args.out, overwrite=args.overwrite, **opts)
+    n, bad = f.stats["members"], f.stats["failed"]
+    print(f"{f.scene.name}: {n} members by {f.method} in {f.stats['wall_time']:.3g} s"
+          + (f", {bad} failed (see the status column)" if bad else ""))
+    print(f"written to {args.out}")
     return 0
 
 
