@@ -257,3 +257,38 @@ def test_in_memory_monte_carlo_keeps_the_samples_of_sample(reference):
         np.testing.assert_array_equal(mc.samples[path], drawn[path])
     ref = lsc.sweep(PAPER, drawn, method="exact", progress=False)
     assert_same_members(mc.sweep, ref)
+
+
+# --------------------------------------------------------------------------- the CLI
+def test_cli_mc_streams_to_parquet_on_worker_processes(tmp_path, capsys):
+    import lsc.cli
+    import pandas as pd
+
+    u = tmp_path / "u.toml"
+    u.write_text('"vehicles.0.speed" = { uniform = ["1 ft/s", "9 ft/s"] }\n')
+    out = tmp_path / "mc.parquet"
+    argv = ["mc", "default", "--uncertainty", str(u), "--n", "5000", "--method", "exact",
+            "--no-progress", "--out", str(out), "--workers", "2", "--metrics", "delta_v"]
+    assert lsc.cli.main(argv) == 0
+    printed = capsys.readouterr().out
+    api = monte_carlo(lsc.cli.resolve_scene("default"), {SPEED: {"uniform": ["1 ft/s", "9 ft/s"]}}, 5000, seed=0,
+                      method="exact", progress=False, out=tmp_path / "api.parquet",
+                      metrics=["delta_v"])
+    assert printed == api.summary() + f"\n\nwritten to {out}\n"
+    pd.testing.assert_frame_equal(pd.read_parquet(out), api.sweep.to_dataframe())
+    assert lsc.cli.main(argv) == 2                               # an earlier run's file
+    assert "already exists" in capsys.readouterr().err
+
+
+def test_cli_refuses_study_options_that_do_not_fit(tmp_path, capsys):
+    import lsc.cli
+
+    base = ["sweep", "--param", "vehicles.0.speed=2:8:3", "--out", str(tmp_path / "d")]
+    assert lsc.cli.main(base + ["--metrics", "delta_v"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "lsc: error: --metrics: --metrics selects the columns of --out FILE.parquet; give one "
+        "(or leave --metrics out)")
+    assert lsc.cli.main(base + ["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    assert "a running cluster (--scheduler) has the workers it was started with" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
