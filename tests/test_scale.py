@@ -292,3 +292,14 @@ def test_cli_refuses_study_options_that_do_not_fit(tmp_path, capsys):
     assert "a running cluster (--scheduler) has the workers it was started with" in \
         capsys.readouterr().err
     assert not (tmp_path / "d").exists()
+
+
+def test_streamed_latin_hypercube_is_the_in_memory_one(tmp_path):
+    kw = dict(seed=8, sampling="lhs", method="closed-form", progress=False)
+    held = monte_carlo(PAPER, UNCERTAIN, 5000, **kw)
+    streamed = monte_carlo(PAPER, UNCERTAIN, 5000, out=tmp_path / "m.parquet", task_size=999,
+                           **kw)
+    for path in UNCERTAIN:
+        np.testing.assert_array_equal(streamed.samples[path], held.samples[path])
+    for name, p in held.percentiles.items():
+        np.testing.assert_array_equal(streamed.percentiles[name], p)
