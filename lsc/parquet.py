@@ -164,13 +164,15 @@ class SweepFile:
 
     def percentiles(self, name: str, q) -> np.ndarray:
         """Percentiles ``q`` [%] of metric ``name`` over the solved members, exact (NumPy's
-        linear rule, as :func:`numpy.percentile`), computed a column at a time:
-        ``(len(q),)``, ``(len(q), N)`` or ``(len(q), K)``; NaN where no member was solved."""
+        linear rule, as :func:`numpy.percentile`), computed a column at a time (memory: about
+        two columns, 16 bytes per member): ``(len(q),)``, ``(len(q), N)`` or ``(len(q), K)``;
+        NaN where no member was solved."""
         ok = self.ok
         out = []
         for label in self.labels(name):
-            values = self.column(label)[ok]
-            out.append(np.percentile(values, q) if values.size else np.full(len(q), np.nan))
+            values = self.column(label)[ok]       # a copy: the file's buffer is freed here
+            out.append(np.percentile(values, q, overwrite_input=True) if values.size
+                       else np.full(len(q), np.nan))
         return out[0] if METRICS[name][1] == "scene" else np.column_stack(out)
 
     def to_dataframe(self):
