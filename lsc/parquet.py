@@ -94,15 +94,16 @@ class ParquetSink:
 class SweepFile:
     """A study written to Parquet (``path``), read back a column at a time.
 
-    ``params``: the swept paths; ``names``: the metrics kept; ``method``, ``shape``, ``stats``
+    ``paths``: the swept paths; ``names``: the metrics kept; ``method``, ``shape``, ``stats``
     (wall time [s], members, failed) and ``reasons`` (failure message → count) as the study
     ran. ``metrics`` maps each kept metric to its values, read from the file on access ((n,),
-    (n, N) or (n, K)); ``status``, ``ok``, ``params_values`` likewise.
+    (n, N) or (n, K)); ``params`` (swept path → values [scene units]), ``status`` and ``ok``
+    likewise: the names of :class:`lsc.SweepResult`.
     """
 
     path: Path
     scene: Scene
-    params: tuple
+    paths: tuple
     names: tuple
     method: str
     shape: tuple
@@ -145,9 +146,9 @@ class SweepFile:
         return _Columns(self.names, self.metric)
 
     @property
-    def params_values(self) -> Mapping:
+    def params(self) -> Mapping:
         """Swept path → values of every member [scene units], read on access."""
-        return _Columns(self.params, lambda p: self.column(self.param_label(p)))
+        return _Columns(self.paths, lambda p: self.column(self.param_label(p)))
 
     @property
     def status(self) -> np.ndarray:

@@ -37,7 +37,8 @@ class MonteCarlo(SummaryHTML):
 
     ``samples``: path → sampled values (n,) [scene units]; ``sweep``: the
     :class:`~lsc.SweepResult` (every metric per member; failed members are NaN with their reason
-    in ``sweep.status``); ``q``: the percentiles [%]; ``percentiles``: metric → array
+    in ``sweep.status``), or for a study written to Parquet the
+    :class:`~lsc.parquet.SweepFile` (``samples`` and metrics then read from it on access); ``q``: the percentiles [%]; ``percentiles``: metric → array
     ``(len(q),)``, ``(len(q), N)`` or ``(len(q), K)`` over the solved members, in scene units
     (peak acceleration in g); ``seed``, ``n``, ``sampling`` (the design: :data:`SAMPLINGS`);
     ``rank_correlation``: ``(path_a, path_b)`` → the requested Spearman rank correlation of each
@@ -228,7 +229,7 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
                metrics=metrics, out=out, overwrite=overwrite, executor=executor,
                task_size=task_size, progress=progress)
     if out is not None:
-        samples = sw.params_values
+        samples = sw.params
     pct = {name: _percentiles(sw, name, q) for name in METRICS if name in sw.metrics}
     return MonteCarlo(base, samples, sw, q, pct, seed, int(n), sampling, correlation)
 
