@@ -5,7 +5,8 @@
               [--margin-steps N] [--method M] [--json FILE] [--overwrite]
     lsc mc SCENE [--n N] [--seed S] [--sampling random|sobol|lhs] [--uncertainty FILE]
            [--method M] [--percentiles 5,50,95]
-           [--out DIR] [--no-plots] [--no-progress] [--overwrite]
+           [--out DIR|FILE.parquet] [--no-plots] [--no-progress] [--overwrite]
+           [--workers N] [--dask] [--scheduler tcp://HOST:PORT] [--task-size N] [--metrics M,...]
     lsc compare SCENE DATA [--method M] [--cfc C] [--time-zero T] [--out DIR] [--no-plots]
                 [--overwrite]
     lsc fit SCENE DATA --param PATH [--param ...] [--initial PATH=V] [--bounds PATH=LO:HI]
@@ -29,8 +30,9 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from ..cli_common import (add_overwrite_option, add_speed_unit_option, json_writer, parquet_writer,
-                          require_parquet, resolve_scene)
+from ..cli_common import (add_overwrite_option, add_speed_unit_option, add_study_options,
+                          is_parquet_file, json_writer, parquet_writer, require_parquet,
+                          resolve_scene, study_settings)
 from ..errors import SceneError
 from ..outputs import refuse_existing, write_files
 
@@ -154,13 +156,17 @@ def add_mc(sub) -> None:
     p.add_argument("--method", choices=METHODS, default="auto", help="backend (default auto)")
     p.add_argument("--percentiles", type=_percentiles, default=(5.0, 50.0, 95.0),
                    help="comma-separated percentiles (default 5,50,95)")
-    p.add_argument("--out", metavar="DIR", help="write mc.csv (the samples and the reported metrics of every member) and "
-                        "histograms here")
+    p.add_argument("--out", metavar="DIR|FILE.parquet",
+                   help="write mc.csv (the samples and the reported metrics of every member) and "
+                        "histograms here; a FILE.parquet streams every member into that one file "
+                        "as it is solved (samples drawn a block at a time, memory bounded "
+                        "whatever --n; percentiles exact, read back from the file)")
     p.add_argument("--no-plots", action="store_true", help="with --out: no histogram PNGs")
     p.add_argument("--parquet", action="store_true",
                    help="with --out: also write mc.parquet (every member's samples and metrics; "
                         "needs the [frames] extra)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_study_options(p)
     add_overwrite_option(p)
     p.set_defaults(func=cmd_mc)
 
@@ -184,18 +190,25 @@ def _histogram_writer(mc, metric: str):
 
 def cmd_mc(args) -> int:
     """Run ``lsc mc``: print the percentile table (and write CSV / histograms)."""
+    from ..chunks import executor_from
     from .uncertainty import monte_carlo
     if args.n < 1:
         raise SceneError("n", f"the number of samples must be positive, got {args.n}")
     scene, dists = load_with_uncertainty(args.scene, args.uncertainty)
+    streamed = is_parquet_file(args.out)
     out = Path(args.out) if args.out else None
-    refuse_existing(_mc_files(out) if out else [], args.overwrite)
-    require_parquet(bool(out) and args.parquet)
-    mc = monte_carlo(scene, dists, args.n, seed=args.seed, sampling=args.sampling,
-                     method=args.method,
-                     progress=False if args.no_progress else None, percentiles=args.percentiles)
+    refuse_existing([out] if streamed else _mc_files(out) if out else [], args.overwrite)
+    require_parquet(streamed or (bool(out) and args.parquet))
+    with executor_from(args.workers, args.scheduler, args.dask) as executor:
+        mc = monte_carlo(scene, dists, args.n, seed=args.seed, sampling=args.sampling,
+                         method=args.method, progress=False if args.no_progress else None,
+                         percentiles=args.percentiles, executor=executor,
+                         out=out if streamed else None, overwrite=args.overwrite,
+                         **study_settings(args))
     print(mc.summary())
-    if out:
+    if streamed:
+        print(f"\nwritten to {out}")
+    elif out:
         writers = {out / "mc.csv": lambda file: mc.sweep.to_csv(file, metrics=MC_METRICS,
                                                                    overwrite=True)}
         if args.parquet:
