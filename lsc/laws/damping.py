@@ -10,7 +10,6 @@ registered with :func:`lsc.laws.register_law`.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +19,7 @@ from ..units import register_kind
 from ._common import MODE_LOADING, MODE_OPEN, MODE_UNLOADING, Param
 from ._common import select as _sel
 from ._common import smooth_min as _min
-from .relations import brach_c2, hunt_crossley_a, kelvin_restitution, kelvin_zeta
+from .relations import brach_c2, hunt_crossley_a, kelvin_dlne_dzeta, kelvin_zeta
 
 __all__ = ["Damping", "SpringDashpotLaw", "KelvinLaw", "HuntCrossleyLaw", "BrachLaw"]
 
@@ -318,19 +317,6 @@ def traced_root(fn, slope, values):
     return root(jnp.asarray(values, float))
 
 
-def _kelvin_dlne_dzeta(z: float) -> float:
-    """``d ln e / dζ`` of the Kelvin restitution ``ln e = -2ζ arccos ζ / √(1-ζ²)``."""
-    if abs(z - 1.0) < 1e-6:  # the two branches meet smoothly at ζ = 1: difference across it
-        h = 1e-4
-        return float((np.log(kelvin_restitution(z + h)) - np.log(kelvin_restitution(z - h)))
-                     / (2 * h))
-    if z < 1:
-        s2 = 1.0 - z * z
-        return -2.0 * (math.acos(z) / s2 ** 1.5 - z / s2)
-    s2 = z * z - 1.0
-    return -2.0 * (z / s2 - math.acosh(z) / s2 ** 1.5)
-
-
 class KelvinLaw(SpringDashpotLaw):
     """Kelvin: ``F = k D + c Ḋ`` (the force jumps at t = 0), damping ratio
     ``ζ = c / (2√(kμ))``, or ``ζ`` from a target restitution
@@ -364,7 +350,7 @@ class KelvinLaw(SpringDashpotLaw):
     def dzeta_de(e: float, zeta: float) -> float:
         """``dζ/de`` of the target-restitution conversion (implicit function theorem on
         ``ln e = -2ζ arccos ζ / √(1-ζ²)``): ``1 / (e · d ln e/dζ)``; ``-1/π`` at ``e = 1``."""
-        return 1.0 / (e * _kelvin_dlne_dzeta(zeta))
+        return 1.0 / (e * kelvin_dlne_dzeta(zeta))
 
     def spring_force(self, D, Ddot, st):
         return st["k"] * D + st["c"] * Ddot
