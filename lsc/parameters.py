@@ -19,7 +19,7 @@ from .errors import SceneError
 from .laws import law_class, make_law
 from .scene import Scene
 
-__all__ = ["read_back", "setter", "batched", "batch_params"]
+__all__ = ["read_back", "setter", "batched", "batch_params", "numbers_at", "tangent"]
 
 _VEHICLE_KEYS = ("speed", "mass", "weight")
 
@@ -187,3 +187,99 @@ def batch_params(model, values: dict):
     p = batched(model.params, n)
     _write(scene, laws, p, {path: np.asarray(vals, float) for path, vals in values.items()})
     return p
+
+
+# ---------------------------------------------------------------------------- tangents
+def _effect_at(model, path: str):
+    """``(j, key)`` for ``vehicles.I.<table>.<key>`` naming a declared key of vehicle ``I``'s
+    effect ``model.brakes[j]``, else ``None``."""
+    parts = _split(path)
+    if len(parts) != 4 or parts[0] != "vehicles" or not parts[1].isdigit():
+        return None
+    for j, eff in enumerate(model.brakes):
+        if eff.i == int(parts[1]) and eff.table == parts[2] and parts[3] in eff.keys():
+            return j, parts[3]
+    return None
+
+
+def _effect_values(model, j: int, key: str, x) -> dict:
+    """Effect ``j``'s key values with ``key`` at ``x``; a key the scene left to its declared
+    default that depends on other keys (a brake's ``mu_static``, ``mu`` by default) follows."""
+    eff = model.brakes[j]
+    src = model.scene.source or {}
+    given = (src.get("vehicles") or [{}] * (eff.i + 1))[eff.i].get(eff.table, {})
+    spec = eff.spec
+    values = {p.key: (spec[p.key] if isinstance(spec, dict) or hasattr(spec, "keys")
+                      else getattr(spec, p.key)) for p in eff.params_declared}
+    values[key] = x
+    for p in eff.params_declared:
+        if p.key != key and callable(p.default) and p.key not in given:
+            values[p.key] = p.default(values)
+    return values
+
+
+def _put(xp, arr, i: int, x):
+    """``arr`` with entry ``i`` set to ``x`` (array code)."""
+    arr = xp.asarray(arr, float)
+    return xp.where(xp.arange(arr.shape[0]) == i, x, arr)
+
+
+def numbers_at(model, path: str, x, xp=np) -> dict:
+    """The model's numbers (:attr:`lsc.model.HybridModel.params`' structure) with the scene
+    value at ``path`` set to ``x`` (a scalar, scene units), built by the declared construction:
+    a vehicle's or a gap's number directly (with every law whose numbers depend on the masses
+    rebuilt), a contact law's by its :meth:`~lsc.laws.HysteresisLaw.numbers`, a vehicle effect's
+    by its ``build``. Array code: traceable by JAX (``xp = jax.numpy``); raises
+    :class:`~lsc.SceneError` for a path that does not map onto the model's numbers."""
+    scene, laws, p0 = model.scene, model.laws, model.params
+    p = {**p0, "contacts": list(p0["contacts"]), "brakes": list(p0["brakes"])}
+    where = _locate(scene, path)
+    effect = _effect_at(model, path) if where is None else None
+    if where is None and effect is None:
+        raise SceneError(path, "does not map onto the model's numbers: accepted are a vehicle's "
+                               "speed, mass or weight, a declared key of its effects, a "
+                               "contact's gap, and the keys its contact law declares")
+    if effect is not None:
+        j, key = effect
+        eff = model.brakes[j]
+        p["brakes"][j] = eff.build(_effect_values(model, j, key, x), scene.g, xp)
+        return p
+    what, i, key = where
+    if what == "gap":
+        p["gap"] = _put(xp, p0["gap"], i, x)
+    elif what == "vehicle" and key == "speed":
+        p["v0"] = _put(xp, p0["v0"], i, x)
+    elif what == "vehicle":
+        p["m"] = _put(xp, p0["m"], i, x if key == "mass" else x / scene.g)
+        m = p["m"]
+        for k, law in enumerate(laws):
+            if law.depends_on_mass and i in (k, k + 1):
+                p["contacts"][k] = law.numbers({}, m[k] * m[k + 1] / (m[k] + m[k + 1]), xp)
+    else:
+        law = laws[i]
+        if not law.sweepable(key):
+            raise SceneError(path, f"contact {i}'s {law.name} law builds its numbers for this "
+                                   "key only by re-loading the scene (a loading curve spliced at "
+                                   "a bumper failure moves the failure point with it), so it has "
+                                   "no tangent: use method=\"finite-difference\"")
+        m = np.asarray(p0["m"], float)
+        p["contacts"][i] = law.numbers({key: x}, m[i] * m[i + 1] / (m[i] + m[i + 1]), xp)
+    return p
+
+
+def tangent(model, path: str, value: float) -> dict:
+    """``∂ model.params / ∂ path`` at ``value`` (the scene's value at ``path``, scene units): a
+    pytree of NumPy arrays of :attr:`lsc.model.HybridModel.params`' structure.
+
+    The derivative of :func:`numbers_at` by forward-mode autodiff (``jax.jvp``); a number a law
+    builds by a root find on NumPy (a target restitution) carries the derivative the law
+    declares with it (:func:`lsc.laws.damping.traced_root`). Needs JAX."""
+    import jax
+    import jax.numpy as jnp
+
+    def numbers(x):
+        return numbers_at(model, path, x, jnp)
+
+    with jax.enable_x64(True):
+        _, t = jax.jvp(numbers, (jnp.asarray(float(value)),), (jnp.asarray(1.0),))
+        return jax.tree_util.tree_map(lambda a: np.array(a, float), t)

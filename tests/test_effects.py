@@ -63,6 +63,35 @@ def test_hunt_crossley_restitution_relation(n, e):
     assert r2.restitution_energy[0] == pytest.approx(e, abs=1e-8)
 
 
+# ------------------------------------------------------------------ target-restitution derivatives
+@pytest.mark.parametrize("law, key, conv", [("KelvinLaw", "zeta", "kelvin_zeta"),
+                                            ("HuntCrossleyLaw", "a", "hunt_crossley_a")])
+def test_target_restitution_numbers_trace_with_their_declared_derivative(law, key, conv):
+    """A law's numbers built from a target restitution (a root find on NumPy) trace under JAX:
+    the values are the NumPy construction's, under jit and vmap, and jax.jvp gives the
+    derivative the law declares (implicit function theorem) = differences of the converter."""
+    jax = pytest.importorskip("jax")
+    jnp = jax.numpy
+    import lsc.contact as contact
+    from lsc import laws
+
+    cls, convert = getattr(laws, law), getattr(contact, conv)
+    values = {"stiffness": 1e5, "damping": None, "exponent": 1.0}
+    es = np.array([0.2, 0.6, 0.95])
+
+    def numbers(e):
+        return cls.build({**values, "restitution": e}, 1000.0, jnp)[key]
+
+    with jax.enable_x64(True):
+        got = np.asarray(jax.jit(jax.vmap(numbers))(jnp.asarray(es)))
+        slopes = [float(jax.jvp(numbers, (jnp.asarray(e),), (jnp.asarray(1.0),))[1]) for e in es]
+    assert got == pytest.approx([float(cls.build({**values, "restitution": e}, 1000.0, np)[key])
+                                 for e in es], rel=1e-14)
+    h = 1e-6
+    assert slopes == pytest.approx([(convert(e + h) - convert(e - h)) / (2 * h) for e in es],
+                                   rel=1e-6)
+
+
 # ------------------------------------------------------------------ Brach
 @pytest.mark.parametrize("c1, c2", [(0.0, 4e4), (2e4, 8e4), (5e4, 5e4)])
 def test_brach_restitution_against_its_energy_integral(c1, c2):

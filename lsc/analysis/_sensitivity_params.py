@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SceneError
+from ..laws import law_class
 from ..scene import UNITS, Damping, Hysteresis, Restitution, Scene, UnloadingStiffness
 from ._common import read_path, split_path
 
@@ -51,17 +52,27 @@ def default_params(scene) -> list[str]:
             elif isinstance(law.unloading, UnloadingStiffness):
                 out.append(f"contacts.{k}.unloading.stiffness")
         elif isinstance(law, Damping):
-            out.append(f"contacts.{k}.stiffness")
-            if law.restitution is not None:
-                out.append(f"contacts.{k}.restitution")
-            else:
-                out.append(f"contacts.{k}.damping")
-                if law.law == "brach":
-                    out.append(f"contacts.{k}.damping_restitution")
+            out += [f"contacts.{k}.{key}" for key in _damping_defaults(law)]
     for i, v in enumerate(sc.vehicles):
         if v.brake is not None:
             out.append(f"vehicles.{i}.brake.mu")
     return out
+
+
+def _damping_defaults(law: Damping) -> list[str]:
+    """The default keys of a spring–dashpot contact: its stiffness, its restitution or its
+    damping (and Brach's c2), and any key of its own its law declares and its scene gives."""
+    keys = ["stiffness"]
+    if law.restitution is not None:
+        keys.append("restitution")
+    else:
+        keys += ["damping"] + (["damping_restitution"] if law.damping_restitution is not None
+                               else [])
+    cls = law_class(law.name)
+    declared = [p.key for p in getattr(cls, "params_declared", ())]
+    own = [key for key in declared
+           if key not in Damping.__dataclass_fields__ and cls.value(law, key) is not None]
+    return [key for key in keys + own if key in declared]
 
 
 def _closing_scale(sc: Scene) -> float:
@@ -141,26 +152,28 @@ def _describe(sc: Scene, path: str) -> _Param:
             return _Param(path, f"{tag} unloading stiffness", law.unloading.stiffness,
                           units["stiffness"], "stiffness")
         raise bad
-    if isinstance(law, Damping):
-        name = law.law
-        if rest == ("stiffness",):
-            kind = "stiffness" if law.exponent == 1.0 else f"stiffness^{law.exponent:g}"
-            return _Param(path, f"{tag} {name} stiffness", law.stiffness, units.get(kind, ""), kind)
-        if rest == ("restitution",):
-            if law.restitution is None:
-                raise SceneError(path, f"{tag}'s {name} law is given by its damping, not a restitution")
-            return _Param(path, f"{tag} restitution", law.restitution, "", "dimensionless")
-        if rest == ("damping",):
-            if law.damping is None:
-                raise SceneError(path, f"{tag}'s {name} law is given by a restitution, not its damping")
-            kind = {"kelvin": "damping", "hunt-crossley": "slowness",
-                    "brach": "damping_per_length"}[name]
-            return _Param(path, f"{tag} {name} damping", law.damping, units[kind], kind)
-        if rest == ("damping_restitution",) and name == "brach":
-            if law.damping_restitution is None:
-                raise SceneError(path, f"{tag}'s Brach law is given by a restitution, not c2")
-            return _Param(path, f"{tag} brach c2", law.damping_restitution,
-                          units["damping_per_length"], "damping_per_length")
-        if rest == ("exponent",) and name == "hunt-crossley":
-            return _Param(path, f"{tag} exponent", law.exponent, "", "dimensionless")
-    raise bad
+    return _declared(sc, path, i, ".".join(rest), tag, bad)
+
+
+#: Labels of the damping laws' keys that read better than the key (``{tag}``: the contact,
+#: ``{name}``: its law).
+_LABELS = {"restitution": "{tag} restitution", "exponent": "{tag} exponent",
+           "damping_restitution": "{tag} {name} c2"}
+
+
+def _declared(sc: Scene, path: str, i: int, key: str, tag: str, bad: SceneError) -> _Param:
+    """A key contact ``i``'s law declares (``params_declared``), with its value, unit and label;
+    ``bad`` if it declares no such key."""
+    spec = sc.contacts[i].law
+    cls = law_class(spec.name)
+    declared = {p.key: p for p in getattr(cls, "params_declared", ())}
+    if key not in declared:
+        raise bad
+    values = {k: cls.value(spec, k) for k in declared}
+    if values[key] is None:
+        given = [k for k in getattr(cls, "choice", ((), ""))[0] if values.get(k) is not None]
+        raise SceneError(path, f"{tag}'s {spec.name} law is given by "
+                               f"{'its ' + given[0] if given else 'other keys'}, not its {key}")
+    kind = declared[key].kind_for(values)
+    label = _LABELS.get(key, "{tag} {name} {key}").format(tag=tag, name=spec.name, key=key)
+    return _Param(path, label, float(values[key]), UNITS[sc.units].get(kind, ""), kind)

@@ -19,7 +19,7 @@ from ..units import register_kind
 from ._common import MODE_LOADING, MODE_OPEN, MODE_UNLOADING, Param
 from ._common import select as _sel
 from ._common import smooth_min as _min
-from .relations import brach_c2, hunt_crossley_a, kelvin_zeta
+from .relations import brach_c2, hunt_crossley_a, kelvin_dlne_dzeta, kelvin_zeta
 
 __all__ = ["Damping", "SpringDashpotLaw", "KelvinLaw", "HuntCrossleyLaw", "BrachLaw"]
 
@@ -157,6 +157,11 @@ class SpringDashpotLaw:
         """What a scene with this law uses (:meth:`lsc.model.HybridModel.features`)."""
         return {f"law:{self.name}"}
 
+    def autodiff_refused(self) -> str | None:
+        """Why forward-mode autodiff through a solve with this contact gives no true derivative
+        (``None``: it does)."""
+        return None
+
     def __init__(self, spec, mu_pair: float = 1.0):
         self.spec = spec
         self.params = {k: np.asarray(v) for k, v in self.numbers({}, mu_pair, np).items()}
@@ -273,12 +278,43 @@ class SpringDashpotLaw:
         return ("separation", "max_deformation", "contact", "recompression")[which]
 
 
-def _root(fn, values, xp):
-    """``fn`` (a scalar root find) of each value (NumPy only: not traced)."""
-    if xp is not np:
+def _root(fn, values, xp, slope=None):
+    """``fn`` (a scalar root find) of each value: on NumPy directly; traced by JAX through
+    :func:`traced_root` when the law declares the root's derivative ``slope``."""
+    if xp is np:
+        return np.vectorize(fn, otypes=[float])(np.asarray(values, float))
+    if slope is None:
         raise TypeError("a target restitution is converted by a root find on NumPy; "
                         "it cannot be traced")
-    return np.vectorize(fn, otypes=[float])(np.asarray(values, float))
+    return traced_root(fn, slope, values)
+
+
+def traced_root(fn, slope, values):
+    """``fn(values)`` (a scalar root find on NumPy) as a JAX function whose forward-mode
+    derivative is the declared ``slope(value, root)`` (``d root / d value``, by the implicit
+    function theorem), computed on the host: JAX sees through neither."""
+    import jax
+    import jax.numpy as jnp
+
+    def host(f, *args):
+        return np.vectorize(f, otypes=[float])(*(np.asarray(a, float) for a in args))
+
+    def call(f, *args):
+        shape = jax.ShapeDtypeStruct(jnp.shape(args[0]), jnp.result_type(float))
+        return jax.pure_callback(lambda *a: host(f, *a).astype(shape.dtype), shape, *args,
+                                 vmap_method="expand_dims")
+
+    @jax.custom_jvp
+    def root(v):
+        return call(fn, v)
+
+    @root.defjvp
+    def _(primals, tangents):
+        (v,), (dv,) = primals, tangents
+        y = root(v)
+        return y, call(slope, v, y) * dv
+
+    return root(jnp.asarray(values, float))
 
 
 class KelvinLaw(SpringDashpotLaw):
@@ -305,10 +341,16 @@ class KelvinLaw(SpringDashpotLaw):
     def build(values, mu, xp):
         k = _as_float(values["stiffness"], xp)
         if values["damping"] is None:
-            zeta = _root(kelvin_zeta, values["restitution"], xp)
+            zeta = _root(kelvin_zeta, values["restitution"], xp, KelvinLaw.dzeta_de)
         else:
             zeta = values["damping"] / (2 * xp.sqrt(k * mu))
         return {"k": k, "zeta": _as_float(zeta, xp)}
+
+    @staticmethod
+    def dzeta_de(e: float, zeta: float) -> float:
+        """``dζ/de`` of the target-restitution conversion (implicit function theorem on
+        ``ln e = -2ζ arccos ζ / √(1-ζ²)``): ``1 / (e · d ln e/dζ)``; ``-1/π`` at ``e = 1``."""
+        return 1.0 / (e * kelvin_dlne_dzeta(zeta))
 
     def spring_force(self, D, Ddot, st):
         return st["k"] * D + st["c"] * Ddot
@@ -338,9 +380,21 @@ class HuntCrossleyLaw(SpringDashpotLaw):
     def build(values, mu, xp):
         given = values["damping"] is not None
         nan = xp.asarray(np.nan)
-        a = nan if given else _root(hunt_crossley_a, values["restitution"], xp)
+        a = nan if given else _root(hunt_crossley_a, values["restitution"], xp,
+                                    HuntCrossleyLaw.da_de)
         return {"k": _as_float(values["stiffness"], xp), "n": _as_float(values["exponent"], xp),
                 "a": _as_float(a, xp), "alpha": _as_float(values["damping"] if given else nan, xp)}
+
+    @staticmethod
+    def da_de(e: float, a: float) -> float:
+        """``da/de`` of the target-restitution conversion (implicit function theorem on
+        ``R = a (1+e) - ln[(1+a)/(1-a e)] = 0``): ``-R_e / R_a``; at ``e = 1`` (``a = 0``) the
+        limit of ``a ≈ 3(1 - e²) / (2(1 + e³))``, ``-3/2``."""
+        if a <= 1e-6:
+            return -1.5
+        R_a = (1 + e) - 1 / (1 + a) - e / (1 - a * e)
+        R_e = a - a / (1 - a * e)
+        return -R_e / R_a
 
     def extra_state(self, p, xp):
         return {"n": xp.asarray(p["n"], float)}
@@ -388,6 +442,14 @@ class BrachLaw(SpringDashpotLaw):
                 "c1": _as_float(values["damping"], xp),
                 "e": _as_float(nan if given else values["restitution"], xp),
                 "c2": _as_float(values["damping_restitution"] if given else nan, xp)}
+
+    def autodiff_refused(self) -> str | None:
+        """A target restitution's c2 is found by bisection inside the solve."""
+        if self.spec.restitution is None:
+            return None
+        return ("Brach's law with a target restitution finds its c2 by bisection inside the "
+                "solve, which forward-mode autodiff cannot see through: use "
+                "method=\"finite-difference\"")
 
     def spring_force(self, D, Ddot, st):
         return D * (st["k"] + st["c"] * Ddot)

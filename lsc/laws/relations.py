@@ -3,9 +3,12 @@ Hunt–Crossley's ``a = α v0`` and Brach's restoring coefficient, from a target
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["kelvin_restitution", "kelvin_zeta", "hunt_crossley_a", "brach_restitution", "brach_c2"]
+__all__ = ["kelvin_restitution", "kelvin_dlne_dzeta", "kelvin_zeta", "hunt_crossley_a",
+           "brach_restitution", "brach_c2"]
 
 
 def kelvin_restitution(zeta):
@@ -17,6 +20,20 @@ def kelvin_restitution(zeta):
         under = np.exp(-2 * zu * np.arccos(zu) / np.sqrt((1 - zu) * (1 + zu)))
         over = np.exp(-2 * zo * np.arccosh(zo) / np.sqrt((zo - 1) * (zo + 1)))
     return np.where(z < 1, under, np.where(z > 1, over, np.exp(-2.0)))
+
+
+def kelvin_dlne_dzeta(z: float) -> float:
+    """``d ln e / dζ`` of the Kelvin restitution ``ln e = -2ζ arccos ζ / √(1-ζ²)`` (arccosh form
+    for ζ > 1)."""
+    if abs(z - 1.0) < 1e-6:  # the two branches meet smoothly at ζ = 1: difference across it
+        h = 1e-4
+        return float((np.log(kelvin_restitution(z + h)) - np.log(kelvin_restitution(z - h)))
+                     / (2 * h))
+    if z < 1:
+        s2 = 1.0 - z * z
+        return -2.0 * (math.acos(z) / s2 ** 1.5 - z / s2)
+    s2 = z * z - 1.0
+    return -2.0 * (z / s2 - math.acosh(z) / s2 ** 1.5)
 
 
 def kelvin_zeta(e: float) -> float:
