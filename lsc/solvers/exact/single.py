@@ -65,7 +65,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     vtol = 1e-12 * model.v_scale
 
     law = model.laws[0]
-    peak = [0.0]
+    # the exact peaks of every segment: (t0, t1, force (1,), accelerations (2,) signed)
+    spans = []
     # a declared bumper failure (of contact 0): its part, event and force
     failure = [(model.parts.index(f), model.events.index((model.parts.index(f), 0)),
                 float(f.params["force"])) for f in getattr(model, "failures", [])]
@@ -80,7 +81,6 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
         brakes.append((j, b.i, float(b.params["mu"]) * m * gg, float(b.params["mus"]) * m * gg,
                        model.events.index((j, 0)), model.events.index((j, 1 if b.i else 2))))
     mass = (m1, m2)
-    peak_a = [0.0, 0.0]
 
     def advance(t0, y0, disc, horizon):
         st = disc[0]
@@ -115,13 +115,14 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
         if stopped is not None:
             end[2 + stopped] = 0.0   # the stop, exactly (held at zero while stuck)
         if not brakes:
-            peak[0] = max(peak[0], g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+            F = max(g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+            spans.append((t0, t0 + tau, (F,), (-F / m1, F / m2)))
         else:
             # the force over the segment: at its ends and where D turns inside it
             Ds = [g.D0, end[0] - end[1] - gap, *_turning_deformations(g, tau)]
             Fs = [_end_force(_PY, law, D, st) for D in Ds]
             lo_f, hi_f = min(Fs), max(Fs)
-            peak[0] = max(peak[0], hi_f)
+            peak_a = [0.0, 0.0]
             for i, sign in ((0, -1.0), (1, 1.0)):
                 if hold[i]:
                     continue
@@ -129,6 +130,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                     a = (sign * F + push[i]) / mass[i]
                     if abs(a) > abs(peak_a[i]):
                         peak_a[i] = a
+            spans.append((t0, t0 + tau, (hi_f,), tuple(peak_a)))
 
         def dense(tt, g=g, t0=t0, t1=t0 + tau, stopped=stopped, sep=sep):
             tt = np.asarray(tt, float)
@@ -146,13 +148,5 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": wall}
-    r = build_result(model, segments, events, y, disc, method="exact", tolerances={},
-                     stats=stats, n_samples=n_samples, y_post=totals["y_post"])
-    # The exact peaks (at event points and turning points, see _end_force) rather than the
-    # largest samples.
-    r.peak_force = np.array([peak[0]])
-    r.peak_acceleration = (np.array(peak_a) if brakes else
-                           np.array([-peak[0] / m1, peak[0] / m2]))
-    r.peak_acceleration_g = r.peak_acceleration / model.scene.g
-    return r
-
+    return build_result(model, segments, events, y, disc, method="exact", tolerances={},
+                        stats=stats, n_samples=n_samples, y_post=totals["y_post"], peaks=spans)
