@@ -24,6 +24,7 @@ class _ScalarTransitions:
     than NumPy on 0-d values. Everything else is the model's own."""
 
     def __init__(self, model):
+        self.__dict__.update(model.__dict__)   # its attributes, read without __getattr__
         self._model = model
         self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
                     for law in model.laws]
@@ -32,6 +33,14 @@ class _ScalarTransitions:
 
     def __getattr__(self, name):
         return getattr(self._model, name)
+
+    def is_over(self, y, disc, t=0.0, horizon=None):
+        """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
+        open (never over before: its first condition), so not on the NumPy arrays of every
+        segment's end."""
+        if any(st["mode"] for st in disc[: self.K]):
+            return False
+        return self._model.is_over(y, disc, t, horizon)
 
     def apply_event(self, i, t, y, disc, p, xp=None):
         """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
@@ -140,8 +149,10 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                 out[2 + stopped] = np.where(tt >= t1, 0.0, out[2 + stopped])
             return out
 
+        ends.append((t0, t0 + tau, y0, end, disc))
         return Step(t0 + tau, np.array(end), event, dense, 1, 0)
 
+    ends = []   # per segment: (t0, t1, state at t0, state at t1, discrete state)
     start = time.perf_counter()
     segments, events, y, disc, totals = run_segments(_ScalarTransitions(model), advance,
                                                      t_end=t_end, max_events=max_events)
@@ -149,4 +160,22 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": wall}
     return build_result(model, segments, events, y, disc, method="exact", tolerances={},
-                        stats=stats, n_samples=n_samples, y_post=totals["y_post"], peaks=spans)
+                        stats=stats, n_samples=n_samples, y_post=totals["y_post"], peaks=spans,
+                        rows=_event_rows(model, ends) if ends else None)
+
+
+def _event_rows(model, ends) -> dict:
+    """The rows at the event points (``t, x, v, a, deformation, force``, as
+    :func:`~lsc.solvers.segments.event_rows` gives them): both ends of every segment, at the
+    exact states there, each in its segment's discrete state, through the model's own array
+    code once for all segments (the discrete states stacked as arrays)."""
+    N = model.N
+    t = np.array([tt for t0, t1, *_ in ends for tt in (t0, t1)])
+    y = np.array([v for _, _, y0, y1, _ in ends for v in (y0, y1)], float).T     # (4, 2S)
+    disc = [{key: np.repeat([d[j][key] for *_, d in ends], 2) for key in part}
+            for j, part in enumerate(ends[0][4])]
+    p = dict(model.params, gap=model.params["gap"][:, None])
+    F, _, a = model.accelerations(y, disc, p)
+    D, _ = model.deformation(y, p)
+    return {"t": t, "x": y[:N].T, "v": y[N:2 * N].T, "a": np.asarray(a, float).T,
+            "deformation": np.asarray(D, float).T, "force": np.asarray(F, float).T}
