@@ -167,15 +167,24 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
 def _event_rows(model, ends) -> dict:
     """The rows at the event points (``t, x, v, a, deformation, force``, as
     :func:`~lsc.solvers.segments.event_rows` gives them): both ends of every segment, at the
-    exact states there, each in its segment's discrete state, through the model's own array
-    code once for all segments (the discrete states stacked as arrays)."""
-    N = model.N
+    exact states there, each in its segment's discrete state, for all segments at once (the
+    discrete states stacked as arrays). The force at a segment end is the law's at the
+    deformation clamped to the segment's range (:func:`.kernels._end_force`: a rounding-level
+    overshoot times a very steep rebound line is no force); the accelerations follow from it
+    as the model's net forces and brakes make them."""
+    N, K = model.N, model.K
     t = np.array([tt for t0, t1, *_ in ends for tt in (t0, t1)])
     y = np.array([v for _, _, y0, y1, _ in ends for v in (y0, y1)], float).T     # (4, 2S)
-    disc = [{key: np.repeat([d[j][key] for *_, d in ends], 2) for key in part}
-            for j, part in enumerate(ends[0][4])]
+    disc = []
+    for j, part in enumerate(ends[0][4]):
+        cols = np.repeat([[d[j][key] for key in part] for *_, d in ends], 2, axis=0)
+        disc.append(dict(zip(part, cols.T)))
     p = dict(model.params, gap=model.params["gap"][:, None])
-    F, _, a = model.accelerations(y, disc, p)
     D, _ = model.deformation(y, p)
-    return {"t": t, "x": y[:N].T, "v": y[N:2 * N].T, "a": np.asarray(a, float).T,
-            "deformation": np.asarray(D, float).T, "force": np.asarray(F, float).T}
+    F = np.array([_end_force(np, law, D[k], disc[k]) for k, law in enumerate(model.laws)])
+    net = model.net_forces(F)
+    a = net / p["m"][:, None]
+    for j, b in enumerate(model.brakes):
+        a[b.i] = b.accel(net[b.i], p["m"][b.i], disc[K + j], p["brakes"][j])
+    return {"t": t, "x": y[:N].T, "v": y[N:2 * N].T, "a": a.T, "deformation": D.T,
+            "force": F.T}
