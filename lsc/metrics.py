@@ -49,7 +49,7 @@ def first_impacts_init(closed0, v0, F0, a0, xp=np) -> dict:
             "v_sep": xp.full(xp.shape(closed0) + (2,), xp.nan),
             "peak_force": xp.where(closed0, F0, 0.0),
             "peak_acc": xp.where(closed2, pairs(a0, xp), 0.0),
-            "v_max": xp.max(xp.abs(v0), axis=-1)}
+            "v_max": _fastest(v0, xp)}
 
 
 def ongoing(first, xp=np):
@@ -81,7 +81,17 @@ def event_update(first, t, v, closes, opens, xp=np) -> dict:
                 v_touch=xp.where(touch[..., None], V, first["v_touch"]),
                 first_end=xp.where(end, t, first["first_end"]),
                 v_sep=xp.where(end[..., None], V, first["v_sep"]),
-                v_max=xp.maximum(first["v_max"], xp.max(xp.abs(v), axis=-1)))
+                v_max=xp.maximum(first["v_max"], _fastest(v, xp)))
+
+
+def _fastest(v, xp):
+    """(...): the largest magnitude of ``v`` (..., N), as an elementwise maximum over the N
+    vehicles (the same value as ``max(abs(v), axis=-1)``, many times cheaper on NumPy with a
+    long batch axis and few vehicles)."""
+    out = xp.abs(v[..., 0])
+    for i in range(1, v.shape[-1]):
+        out = xp.maximum(out, xp.abs(v[..., i]))
+    return out
 
 
 def restitution(v_touch, v_end, v_max, xp=np):

@@ -17,6 +17,18 @@ from ..errors import SceneError
 from ._common import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, REBOUND_RESOLUTION, Param
 from ._common import select as _sel
 
+
+def _lazy(cond, a, b, xp) -> dict:
+    """``select(cond, a(), b(), xp)`` for branches given as functions: with a condition known
+    now (a Python or NumPy boolean scalar: one scene's transition on Python floats or 0-d
+    arrays) only the branch taken is evaluated, the same values as evaluating both and picking
+    one (a transition is pure); with an array condition, or on ``jax.numpy`` (whose branches
+    must agree in shape and type), both, then ``select``."""
+    if (cond is True or cond is False or isinstance(cond, (np.bool_, np.ndarray))
+            and np.ndim(cond) == 0) and not getattr(xp, "__name__", "").startswith("jax"):
+        return dict(a() if cond else b())
+    return _sel(cond, a(), b(), xp)
+
 __all__ = ["HysteresisLaw", "Hysteresis", "Restitution", "UnloadingStiffness", "UnloadingTable"]
 
 
@@ -301,7 +313,8 @@ class HysteresisLaw:
         """State at t = 0: loading if touching (``D >= 0``) and closing, else open."""
         st = self._zero(xp)
         touching = (D >= 0) & (Ddot > 0)
-        return _sel(touching, self._loading_at(st, D, p, xp), self._open(st, xp), xp)
+        return _lazy(touching, lambda: self._loading_at(st, D, p, xp),
+                     lambda: self._open(st, xp), xp)
 
     def _max_deformation(self, st: dict, D, p: dict, xp) -> dict:
         """Common velocity reached: record (D_max, F_max) and switch to the unloading branch."""
@@ -332,8 +345,8 @@ class HysteresisLaw:
         instant = (dscale <= p["wres"] * abs(D)) | (F <= 0) | (dscale <= 1e-300 * F)
         new_open = dict(new)
         new_open.update(dperm=D, dscale=xp.asarray(0.0), er=xp.asarray(0.0))
-        return _sel(instant, self._open(new_open, xp),
-                    self._unloading(new, xp.asarray(self.n_unload - 2), p, xp), xp)
+        return _lazy(instant, lambda: self._open(new_open, xp),
+                     lambda: self._unloading(new, xp.asarray(self.n_unload - 2), p, xp), xp)
 
     def on_event(self, which, D, Ddot, st: dict, p: dict, xp=np, mu=None, w=None) -> dict:
         """Discrete state after event ``which`` (0 = lo, 1 = hi, 2 = vmax) at deformation ``D``
@@ -343,19 +356,21 @@ class HysteresisLaw:
         top, bottom = seg >= self.n_unload - 2, seg <= 0
         # hi: next loading segment / next unloading segment up / past D_max onto loading / close
         reload_from_open = (st["dmax"] <= 0) | (st["dperm"] >= st["dmax"])
-        hi_open = _sel(reload_from_open, self._loading_at(st, D, p, xp),
-                       self._unloading(st, xp.asarray(0), p, xp), xp)
-        hi_unl = _sel(top, self._loading_at(st, st["dmax"], p, xp),
-                      self._unloading(st, xp.clip(seg + 1, 0, self.n_unload - 2), p, xp), xp)
-        hi_load = self._loading(st, xp.clip(seg + 1, 0, self.n_load - 1), p, xp)
-        hi = _sel(loading, hi_load, _sel(unloading, hi_unl, hi_open, xp), xp)
+        hi_open = lambda: _lazy(reload_from_open, lambda: self._loading_at(st, D, p, xp),
+                                lambda: self._unloading(st, xp.asarray(0), p, xp), xp)
+        hi_unl = lambda: _lazy(
+            top, lambda: self._loading_at(st, st["dmax"], p, xp),
+            lambda: self._unloading(st, xp.clip(seg + 1, 0, self.n_unload - 2), p, xp), xp)
+        hi_load = lambda: self._loading(st, xp.clip(seg + 1, 0, self.n_load - 1), p, xp)
+        hi = lambda: _lazy(loading, hi_load, lambda: _lazy(unloading, hi_unl, hi_open, xp), xp)
         # lo: next unloading segment down, or separation at the permanent set
-        lo = _sel(bottom, self._open(st, xp),
-                  self._unloading(st, xp.clip(seg - 1, 0, self.n_unload - 2), p, xp), xp)
-        lo = _sel(unloading, lo, st, xp)
+        lo = lambda: _lazy(unloading, lambda: _lazy(
+            bottom, lambda: self._open(st, xp),
+            lambda: self._unloading(st, xp.clip(seg - 1, 0, self.n_unload - 2), p, xp), xp),
+            lambda: st, xp)
         # vmax: common velocity while loading
-        vm = _sel(loading, self._max_deformation(st, D, p, xp), st, xp)
-        return _sel(which == 0, lo, _sel(which == 1, hi, vm, xp), xp)
+        vm = lambda: _lazy(loading, lambda: self._max_deformation(st, D, p, xp), lambda: st, xp)
+        return _lazy(which == 0, lo, lambda: _lazy(which == 1, hi, vm, xp), xp)
 
     # ------------------------------------------------------------------ reporting
     @classmethod
