@@ -24,6 +24,7 @@ __all__ = ["METHODS", "ALL_OPTIONS", "MAX_SAMPLES", "OPTIONS", "Backend", "Optio
 _DECLARED: dict[str, object] = {
     "closed-form": "lsc.solvers.closed_form",
     "exact": "lsc.solvers.exact",
+    "exact-chain": "lsc.solvers.exact_chain",
     "scipy": "lsc.solvers.scipy_ode",
     "diffrax": "lsc.solvers.diffrax_ode",
     "reference": "lsc.solvers.reference",

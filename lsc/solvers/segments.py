@@ -109,8 +109,9 @@ def contact_records(model, disc) -> list[dict]:
 
 
 def build_result(model, segments, events, y_final, disc_final, *, method, tolerances, stats,
-                 n_samples=1000, y_post=None) -> Result:
-    """Sample every segment (both ends included) and assemble the :class:`Result`."""
+                 n_samples=1000, y_post=None, refine_peaks=True) -> Result:
+    """Sample every segment (both ends included) and assemble the :class:`Result`
+    (``refine_peaks=False``: the backend raises the peaks between samples itself, exactly)."""
     p = model.params
     total = max(sum(s.t1 - s.t0 for s in segments), 1e-300)
     ts, ys, As, Ds, Fs = [], [], [], [], []
@@ -140,7 +141,7 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
                      force=np.concatenate(Fs), events=events,
                      contacts=contact_records(model, disc_final), v_final=post[N:2 * N],
                      method=method, tolerances=tolerances, stats=stats)
-    if segments and (model.work or model.N > 2):
+    if segments and refine_peaks and (model.work or model.N > 2):
         _refine_peaks(model, segments, r)
     return r
 
