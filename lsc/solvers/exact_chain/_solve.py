@@ -3,10 +3,11 @@ with a guarantee (:mod:`._roots`), the model's transitions (:func:`~lsc.solvers.
 
 A segment starts on the surface of the event that ended the last one (the restart trap). An
 event function within rounding of zero at the start is judged by its first derivative that is
-not (up to the fourth): going down, it fires at once (a contact touching at rest that a
-neighbour pushes shut); going up, it is left alone over the interval where its Taylor
-polynomial with that derivative and a bound on the next one is provably positive, and searched
-from there on. A function whose derivatives all vanish stays on its surface and never fires.
+not: going down, it fires at once (a contact touching at rest that a neighbour pushes shut,
+however far down the chain: its deformation grows as a high power of time); going up, it is
+left alone over the interval where its Taylor polynomial with that derivative and a bound on
+the next one is provably positive, and searched from there on. A function whose derivatives
+all vanish (up to the order that decides it) stays on its surface all along the segment.
 """
 
 from __future__ import annotations
@@ -42,8 +43,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     BACKEND.check(model)
     chain = _Chain(model)
     start = time.perf_counter()
-    segments, events, y, disc, totals = run_segments(model, chain.advance, t_end=t_end,
-                                                     max_events=max_events)
+    segments, events, y, disc, totals = run_segments(_transitions(model), chain.advance,
+                                                     t_end=t_end, max_events=max_events)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": time.perf_counter() - start}
     r = build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
@@ -51,6 +52,19 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                      refine_peaks=False)
     r._raise_peaks(chain.spans)   # the peaks between samples, exactly
     return r
+
+
+def _transitions(model):
+    """The model with its laws' transitions evaluated on Python floats (those of the exact
+    two-vehicle backend, about 10x cheaper than NumPy on 0-d values), keeping the laws'
+    rebound resolution: this backend works in absolute deformations, to the ulps of the
+    positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
+    from ..exact import _ScalarTransitions
+
+    fast = _ScalarTransitions(model)
+    for pp, law in zip(fast._pp, model.laws):
+        pp["wres"] = float(law.params["wres"])
+    return fast
 
 
 class _Chain:
@@ -165,11 +179,14 @@ class _Chain:
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
     """Where to start searching ``g`` [s into the segment]: 0 normally (0 with ``g(0) <= 0``:
     it fires now), later where it starts on its surface and leaves it (see the module
-    docstring), ``None`` where it stays on it."""
-    d = g.derivatives_at_zero(4)
+    docstring), ``None`` where it stays on it: where its first ``n + 1`` derivatives vanish,
+    ``n`` the number of modes plus one (the state with the constant force), every one does
+    (Cayley-Hamilton), and ``g`` is zero all along the segment."""
+    order = g.alpha.size + 2
+    d = g.derivatives_at_zero(order)
     if abs(d[0]) > tol:
         return 0.0
-    for p in range(1, 5):
+    for p in range(1, order + 1):
         if abs(d[p]) > tol * omega ** p:
             break
     else:
