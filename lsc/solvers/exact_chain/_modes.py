@@ -95,6 +95,17 @@ class Modes:
             C[:, self.rigid] = 0.5 * tau * tau
         return S, C
 
+    def curvature_bounds(self, alpha, gamma, T: float):
+        """Bounds on ``|g''|`` over ``[0, T]`` for series of coefficients ``alpha, gamma``
+        (..., n): ``g'' = Σ -κ α S + γ S'``, with ``|S| <= min(T, 1/ω)``, ``|S'| <= 1``
+        (harmonic and rigid modes) and ``S <= sinh(λT)/λ``, ``S' <= cosh(λT)`` (hyperbolic)."""
+        k, w = self.kappa, self.w
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            s_max = np.where(k > 0, np.minimum(T, 1.0 / np.where(w > 0, w, 1.0)),
+                             np.where(k < 0, np.sinh(w * T) / np.where(w > 0, w, 1.0), T))
+            ds_max = np.where(k < 0, np.cosh(w * T), 1.0)
+        return np.abs(alpha * k) @ s_max + np.abs(gamma) @ ds_max
+
     def fastest(self) -> float:
         """The largest ``sqrt|κ|`` [1/s] (0: all rigid)."""
         return float(np.max(self.w)) if self.w.size else 0.0
@@ -143,16 +154,8 @@ class Series:
         return out
 
     def curvature_bound(self, T: float) -> float:
-        """A bound on ``|g''|`` over ``[0, T]``: ``g'' = Σ -κ α S + γ S'``, with
-        ``|S| <= min(T, 1/ω)``, ``|S'| <= 1`` (harmonic and rigid modes) and
-        ``S <= sinh(λT)/λ``, ``S' <= cosh(λT)`` (hyperbolic)."""
-        m = self.modes
-        k, w = m.kappa, m.w
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            s_max = np.where(k > 0, np.minimum(T, 1.0 / np.where(w > 0, w, 1.0)),
-                             np.where(k < 0, np.sinh(w * T) / np.where(w > 0, w, 1.0), T))
-            ds_max = np.where(k < 0, np.cosh(w * T), 1.0)
-        return float(np.sum(np.abs(k * self.alpha) * s_max + np.abs(self.gamma) * ds_max))
+        """A bound on ``|g''|`` over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
+        return float(self.modes.curvature_bounds(self.alpha, self.gamma, T))
 
     def oscillates(self) -> bool:
         """True when a mode with ``κ != 0`` enters ``g`` (else it is a quadratic in τ)."""

@@ -57,7 +57,7 @@ def earliest(funcs: list[Series], lo: float, hi: float) -> tuple[float | None, i
     S, C = modes.basis(tt)
     c, A, G = _stack(funcs)
     vals = c[:, None] + A @ S.T + G @ C.T
-    margin = np.array([g.curvature_bound(hi) for g in funcs]) * (tt[1] - tt[0]) ** 2 / 8.0
+    margin = modes.curvature_bounds(A, G, hi) * (tt[1] - tt[0]) ** 2 / 8.0
     for j, g in enumerate(funcs):
         v = vals[j]
         end = len(tt) - 1 if best is None else int(np.searchsorted(tt, best, side="right"))
