@@ -161,10 +161,14 @@ class _Chain:
                 tau = first_crossing(g, s, first)
                 if tau is not None and (best is None or tau < best):
                     best, best_i = tau, i
-        lo, window = 0.0, first
+        # windows from one period of the fastest mode, doubling up to two of the slowest (an
+        # event near the start, as on a stiff rebound line, costs few samples)
+        lo = 0.0
+        window = min(first, 2 * math.pi / modes.fastest()) if modes.fastest() else first
         budget = MAX_SAMPLES / (PER_RADIAN * omega)
         while pending and lo < limit and (best is None or lo < best):
             hi = min(lo + window, limit, best if best is not None else math.inf)
+            window = min(2 * window, first)
             live = [(i, g) for i, g, s in pending if s <= lo or (lo > 0 and s < hi)]
             if live:
                 tau, j = earliest([g for _, g in live], lo, hi)
