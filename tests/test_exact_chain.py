@@ -107,8 +107,13 @@ def _check_conservation(r):
 
 
 @settings(max_examples=200)
-@given(chains())
+@given(chains(e_min=0.2, pushed_shut=False))
 def test_chains_match_the_independent_modal_solution(scene):
+    """(Not with contacts touching at no closing speed: the reference moves a function that
+    starts on its surface off it by a fixed amount, which rounding in its modal sums can
+    exceed, and closes such contacts late or spuriously; nor with near-plastic contacts that a
+    neighbour pushes shut over and over, where each solution's rounding grows over the
+    events. SciPy is the reference for those, below.)"""
     r = lsc.solve(scene, method="exact-chain")
     s = r.scene
     ref = ModalChain(s.masses, s.speeds,
@@ -183,6 +188,25 @@ def test_elastic_chain_with_a_gap_passes_the_speed_down_the_line():
     assert [(e.index, e.kind) for e in r.events] == [
         (0, "contact"), (0, "max_deformation"), (0, "separation"), (1, "contact"),
         (1, "max_deformation"), (1, "separation")]
+
+
+def test_contacts_pushed_shut_down_a_touching_line_close_at_once():
+    """Six equal cars touching, the rear one moving, e = 1: every contact is closed from t = 0
+    (the farthest one's deformation grows as t⁹, judged by its ninth derivative), and the
+    result agrees with the tightest SciPy solve (which closes them a moment late, when the
+    deformation exceeds its tolerance) to its accuracy."""
+    v0 = 10.0
+    scene = {"units": "US",
+             "vehicles": [{"mass": 50.0, "speed": v0}] + [{"mass": 50.0, "speed": 0.0}] * 5,
+             "contacts": [{"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}}]
+             * 5}
+    r = lsc.solve(scene, method="exact-chain")
+    assert [(e.time, e.index) for e in r.events[:5]] == [(0.0, k) for k in range(5)]
+    assert all(e.kind == "contact" for e in r.events[:5])
+    ref = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12)
+    assert [(e.index, e.kind) for e in r.events] == [(e.index, e.kind) for e in ref.events]
+    assert np.max(np.abs(r.v_final - ref.v_final)) <= 1e-9 * v0
+    _check_conservation(r)
 
 
 def _kelvin_chain():

@@ -183,10 +183,11 @@ class _Chain:
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
     """Where to start searching ``g`` [s into the segment]: 0 normally (0 with ``g(0) <= 0``:
     it fires now), later where it starts on its surface and leaves it (see the module
-    docstring), ``None`` where it stays on it: where its first ``n + 1`` derivatives vanish,
-    ``n`` the number of modes plus one (the state with the constant force), every one does
-    (Cayley-Hamilton), and ``g`` is zero all along the segment."""
-    order = g.alpha.size + 2
+    docstring), ``None`` where it stays on it: ``g`` lies in the span of ``1, S_j, C_j``
+    (``2n + 1`` functions for ``n`` modes), which differentiation maps into itself, so where its
+    first ``2n + 1`` derivatives vanish every one does (Cayley-Hamilton), and ``g`` is zero all
+    along the segment."""
+    order = 2 * g.alpha.size + 1
     d = g.derivatives_at_zero(order)
     if abs(d[0]) > tol:
         return 0.0
