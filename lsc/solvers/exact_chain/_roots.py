@@ -21,7 +21,7 @@ from scipy.optimize import brentq
 
 from ._modes import Modes, Series
 
-__all__ = ["earliest", "first_crossing", "extrema", "PER_RADIAN", "TOUCH"]
+__all__ = ["earliest", "first_crossing", "extrema", "PER_RADIAN", "TOUCH", "FLAT"]
 
 #: Samples per radian of the fastest mode (the curvature bound does the rest).
 PER_RADIAN = 4.0
@@ -126,10 +126,12 @@ def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:
     return down[0] if down else None
 
 
-def extrema(funcs: list[Series], T: float, width: float) -> list[list[float]]:
-    """For each of ``funcs``, the times in ``(0, T)`` where its derivative changes sign (every
-    interior extremum, to ``width`` [s]: one within ``width`` of another point is not needed
-    for the value at it, which differs from the point's by ``|g''| width²/2`` at most)."""
+def extrema(funcs: list[Series], T: float) -> list[list[float]]:
+    """For each of ``funcs``, the times in ``[0, T]`` that hold its extreme values on it
+    besides the ends: where its derivative changes sign (refined to a few ulps), and the ends
+    of the intervals where ``g`` provably varies by less than :data:`FLAT` of its size (a
+    derivative grazing zero there need not be resolved: any point of the interval gives the
+    value to rounding)."""
     modes = funcs[0].modes
     out = [[] for _ in funcs]
     if T <= 0:
@@ -137,32 +139,82 @@ def extrema(funcs: list[Series], T: float, width: float) -> list[list[float]]:
     ders = [g.derivative() for g in funcs]
     tt = _grid(modes, 0.0, T) if modes.fastest() > 0 else np.linspace(0.0, T, 3)
     S, C = modes.basis(tt)
+    c, A, G = _stack(funcs)
+    size = np.max(np.abs(c[:, None] + A @ S.T + G @ C.T), axis=1)
     c, A, G = _stack(ders)
     vals = c[:, None] + A @ S.T + G @ C.T
+    bounds = modes.curvature_bounds(A, G, T)
+    margin = bounds * (tt[1] - tt[0]) ** 2 / 8.0
     for j, d in enumerate(ders):
         if not (np.any(d.alpha) or np.any(d.gamma)):
             continue   # constant: no interior extremum
-        B = d.curvature_bound(T)
         v = vals[j]
-        margin = B * (tt[1] - tt[0]) ** 2 / 8.0
-        for i in np.flatnonzero((v[:-1] * v[1:] <= 0) | (np.minimum(np.abs(v[:-1]),
-                                                                    np.abs(v[1:])) <= margin)):
-            out[j] += _sign_changes(d, tt[i], tt[i + 1], v[i], v[i + 1], B, width)
+        start = _taylor_clear(d, T)
+        unclear = (v[:-1] * v[1:] <= 0) | (np.minimum(np.abs(v[:-1]), np.abs(v[1:])) <= margin[j])
+        for i in np.flatnonzero(unclear & (tt[1:] > start)):
+            a = max(tt[i], start)
+            out[j] += _sign_changes(d, a, tt[i + 1], v[i] if a == tt[i] else d(a), v[i + 1],
+                                    bounds[j], FLAT * size[j])
     return out
 
 
-def _sign_changes(d, a, b, da, db, B, width):
-    """The zeros of ``d`` in ``[a, b]`` where it changes sign: one per sign change of the
-    samples, after bisecting the intervals without one that the bound cannot clear (down to
-    ``width``). (Between samples a quarter radian of the fastest mode apart, a derivative
-    changes sign at most once but where it grazes zero, which the bisection resolves.)"""
+def _taylor_clear(d: Series, T: float) -> float:
+    """A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
+    rounding does not hide (0 where ``d(0)`` itself is clear of rounding, or none is): there
+    ``d ≈ d_p τ^p/p!`` and ``|d^(p+1)| <= B``, so ``d`` keeps its sign while
+    ``|d_p| τ^p/p! > B τ^(p+1)/(p+1)!`` (the lower orders, rounding, are neglected). A function
+    pushed into motion far down a chain is flat at the start (``τ^9``), where sampling cannot
+    tell its sign."""
+    n = 2 * d.alpha.size + 1
+    vals = d.derivatives_at_zero(n)
+    noise = Series(abs(d.c), np.abs(d.alpha), np.abs(d.gamma), d.modes)
+    scale = []
+    for _ in range(n + 1):
+        scale.append(noise.c)
+        noise = Series(float(np.sum(noise.alpha)), noise.gamma,
+                       np.abs(d.modes.kappa) * noise.alpha, d.modes)
+    tol = [64 * _EPS * x for x in scale]
+    if abs(vals[0]) > tol[0]:
+        return 0.0
+    p = next((k for k in range(1, n + 1) if abs(vals[k]) > tol[k]), None)
+    if p is None:
+        return 0.0
+    lower = d
+    for _ in range(p - 1):
+        lower = lower.derivative()
+    B = lower.curvature_bound(T)
+    return min(0.5 * (p + 1) * abs(vals[p]) / B, T) if B > 0 else T
+
+
+#: A function that provably varies by less than this fraction of its size over an interval
+#: has its extreme values there at the interval's ends, to rounding (:func:`extrema`).
+FLAT = 1e-15
+#: Bisection depth of an interval whose derivative grazes zero, in :func:`extrema`.
+DEPTH = 10
+
+
+def _sign_changes(d, a, b, da, db, B, flat):
+    """Times in ``[a, b]`` holding the extremes of the function whose derivative is ``d``: the
+    zeros where ``d`` changes sign, one per sign change of the samples, after bisecting the
+    intervals without one that the bound cannot clear; an interval over which the function
+    varies by at most ``flat`` [its unit], or narrower than ``2^-DEPTH`` of the sample step,
+    gives its ends instead: there the function is within ``(|d| + B w²/8) w`` of its value at
+    the ends (``w`` the width, ``|d|`` below ``B w²/8`` where the bound could not clear it), a
+    few 1e-10 of its variation over a sample step at most. (Between samples a quarter
+    radian of the fastest mode apart a derivative changes sign at most once but where it grazes
+    zero, which the bisection resolves.)"""
     found, stack = [], [(a, b, da, db)]
+    finest = (b - a) / 2 ** DEPTH
     while stack:
         a, b, da, db = stack.pop()
+        reach = B * (b - a) ** 2 / 8.0
+        if (max(abs(da), abs(db)) + reach) * (b - a) <= flat or b - a <= finest:
+            found += [a, b]
+            continue
         if da * db <= 0 and da != db:
             found.append(_refine(d, a, b, da, db))
             continue
-        if min(abs(da), abs(db)) - B * (b - a) ** 2 / 8.0 > 0 or b - a <= width:
+        if min(abs(da), abs(db)) - reach > 0:
             continue
         mid = 0.5 * (a + b)
         dm = d(mid)

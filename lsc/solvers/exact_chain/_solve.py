@@ -116,7 +116,7 @@ class _Chain:
         alpha = np.concatenate([fa, (inc @ fa) / m])
         gamma = np.concatenate([fg, (inc @ fg) / m])
         series = [Series(float(c[j]), alpha[j], gamma[j], motion.modes) for j in range(c.size)]
-        inner = extrema(series, tau, 1e-9 * tau)
+        inner = extrema(series, tau)
         peaks = []
         for g, times in zip(series, inner):
             vals = g(np.array([0.0, tau, *times]))
