@@ -134,7 +134,9 @@ def test_chains_match_the_independent_modal_solution(scene):
                                               gaps), t_last)
     assert [e[1:] for e in ours] == [e[1:] for e in theirs]
     t, t_ref = np.array([e[0] for e in ours]), np.array([e[0] for e in theirs])
-    assert np.max(np.abs(t - t_ref)) <= 1e-10 * t_last
+    # (times to 1e-8: a contact closing after a long flight at a small closing rate, a
+    # difference of speeds each known to ~1e-11, is timed to that over the rate)
+    assert np.max(np.abs(t - t_ref)) <= 1e-8 * t_last
     scale = closing_scale(s)
     assert np.max(np.abs(r.v_final - v_ref)) <= 1e-10 * scale, (r.v_final, v_ref)
     _check_conservation(r)
