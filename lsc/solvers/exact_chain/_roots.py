@@ -103,9 +103,14 @@ def _hunt(g, a, b, ga, gb, B, width):
 
 
 def _refine(g, a, b, ga, gb):
-    """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time."""
+    """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time. (The sign
+    change is that of the samples ``ga, gb``; where ``g`` evaluated on its own at the ends, in a
+    different order of rounding, shows none, the zero is at the end nearer to it, to rounding.)"""
     if ga == 0 or gb == 0:
         return a if ga == 0 else b
+    fa, fb = g(a), g(b)
+    if fa * fb > 0 or fa == 0 or fb == 0:
+        return a if abs(fa) <= abs(fb) else b
     return float(brentq(g, a, b, xtol=1e-300, rtol=4 * _EPS, maxiter=500))
 
 
