@@ -154,7 +154,7 @@ def extrema(funcs: list[Series], T: float) -> list[list[float]]:
         if not (np.any(d.alpha) or np.any(d.gamma)):
             continue   # constant: no interior extremum
         v = vals[j]
-        start = _taylor_clear(d, T)
+        start = _taylor_clear(d, T, float(np.sum(np.abs(funcs[j].alpha))))
         unclear = (v[:-1] * v[1:] <= 0) | (np.minimum(np.abs(v[:-1]), np.abs(v[1:])) <= margin[j])
         for i in np.flatnonzero(unclear & (tt[1:] > start)):
             a = max(tt[i], start)
@@ -163,16 +163,18 @@ def extrema(funcs: list[Series], T: float) -> list[list[float]]:
     return out
 
 
-def _taylor_clear(d: Series, T: float) -> float:
-    """A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
+def _taylor_clear(d: Series, T: float, rounding: float) -> float:
+    """(``rounding``: the size of the terms whose sum is ``d(0)``.) A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
     rounding does not hide (0 where ``d(0)`` itself is clear of rounding, or none is): there
     ``d ≈ d_p τ^p/p!`` and ``|d^(p+1)| <= B``, so ``d`` keeps its sign while
     ``|d_p| τ^p/p! > B τ^(p+1)/(p+1)!`` (the lower orders, rounding, are neglected). A function
     pushed into motion far down a chain is flat at the start (``τ^9``), where sampling cannot
     tell its sign."""
     n = 2 * d.alpha.size + 1
+    if abs(d.c) > 64 * _EPS * rounding:
+        return 0.0   # (clear of rounding at 0: the common case, decided without the series)
+    noise = Series(rounding, np.abs(d.alpha), np.abs(d.gamma), d.modes)
     vals = d.derivatives_at_zero(n)
-    noise = Series(abs(d.c), np.abs(d.alpha), np.abs(d.gamma), d.modes)
     scale = []
     for _ in range(n + 1):
         scale.append(noise.c)

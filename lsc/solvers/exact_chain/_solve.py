@@ -188,9 +188,9 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     first ``2n + 1`` derivatives vanish every one does (Cayley-Hamilton), and ``g`` is zero all
     along the segment."""
     order = 2 * g.alpha.size + 1
-    d = g.derivatives_at_zero(order)
-    if abs(d[0]) > tol:
+    if abs(g.c) > tol:
         return 0.0
+    d = g.derivatives_at_zero(order)
     for p in range(1, order + 1):
         if abs(d[p]) > tol * omega ** p:
             break
