@@ -111,18 +111,21 @@ def contact_records(model, disc) -> list[dict]:
 
 
 def build_result(model, segments, events, y_final, disc_final, *, method, tolerances, stats,
-                 n_samples=1000, y_post=None, peaks=(), rows=None) -> Result:
+                 n_samples=1000, y_post=None, peaks=(), rows=None,
+                 interior=True) -> Result:
     """The :class:`Result` of a segment run: impacts and metrics from every segment's ends
     (:func:`event_rows`) and the peaks inside segments (a damping law's force, a chain's middle
     vehicle: :func:`interior_peaks`; plus ``peaks``, spans ``(t0, t1, force (K,), acceleration
     (N,))`` a backend located itself); the series (``n_samples`` points over the run, both ends
     of every segment included) sampled from the dense outputs when first read. ``rows``: the
-    rows at the event points, if the backend has them (else :func:`event_rows`)."""
+    rows at the event points, if the backend has them (else :func:`event_rows`); ``interior``:
+    search the peaks inside segments (``False`` where ``peaks`` holds them all, exactly)."""
     N = model.N
     post = np.asarray(y_final if y_post is None else y_post)
     rows = event_rows(model, segments, y_final) if rows is None else rows
     turns = _turning(rows) if segments else np.zeros((0, model.K), bool)
-    inside = [j for j, turn in enumerate(turns) if turn.any() or model.work or N > 2]
+    inside = [j for j, turn in enumerate(turns)
+              if interior and (turn.any() or model.work or N > 2)]
     spans = list(peaks) + interior_peaks(model, [segments[j] for j in inside], turns[inside])
     return Result.build(model.scene, rows=rows,
                         sampler=_Sampler(model, segments, y_final, n_samples), peaks=spans,
