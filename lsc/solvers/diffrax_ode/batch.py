@@ -52,7 +52,7 @@ def solve_params(model, params_batch, *, integrator: str = "Dopri8", rtol: float
     (``compile_time``, ``wall_time`` [s], ``size``). Peaks of force and acceleration are taken
     at the events and, where they can lie between events (damping laws, braking, chains), at the
     extrema inside every step's dense output. ``horizon`` [s] (scalar or (B,)): when a contact
-    still closed is an error (default: a million contact times of each member); ``g``
+    still closed is an error (default: each member's :meth:`HybridModel.horizon`); ``g``
     [acceleration] (scalar or (B,)): for ``peak_acceleration_g`` (default the scene's).
     """
     check_settings(integrator, rtol, atol, max_steps, max_events)

@@ -144,13 +144,13 @@ class SegmentLoop(EventSearch, PeakSearch):
 
     def _run(self, p, rtol, atol, t_end, horizon, record: bool, g=None):
         """The whole hybrid solve. ``t_end``, ``horizon`` [s]: NaN when not given (the horizon:
-        when a contact that has not separated is an error; default ``1e6`` contact times).
+        when a contact that has not separated is an error; default :meth:`HybridModel.horizon`).
         ``record``: keep events, segments and step nodes for a Result (single solves); else only
         the metrics (batches), ``peak_acceleration_g`` in units of ``g`` [acceleration]."""
         TRACES["core"] += 1
         m = self.model
         N, K, E, S, C, n = m.N, m.K, self.max_events, self.max_steps, self.capacity, m.n_state
-        v_scale, t_scale = m.speed_scale(p, jnp), m.time_scale(p=p, xp=jnp)
+        v_scale = m.speed_scale(p, jnp)
         sc = m.event_scales(p, jnp)
         # default atol: positions, velocities, work integrals (as SciPy); per segment, positions
         # to rtol of the active pieces' own scale (a near-plastic rebound line's width)
@@ -165,7 +165,7 @@ class SegmentLoop(EventSearch, PeakSearch):
         # surface (as the SciPy backend's: 100 rtol, the global error of a deformation)
         depth = jnp.maximum(EVENT_TOL, 100 * rtol)
         has_t_end = ~jnp.isnan(t_end)
-        crash = jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon)
+        crash = jnp.where(jnp.isnan(horizon), m.horizon(p, jnp), horizon)
         horizon = jnp.where(has_t_end, t_end, crash)
         # a contact that would close again only after this has no crash left in it
         over_by = jnp.where(has_t_end, jnp.maximum(crash, t_end), crash)
