@@ -210,6 +210,32 @@ def test_jax_numpy_gives_the_same_metrics_batched_and_compiled(kind):
                                        equal_nan=True, err_msg=name)
 
 
+@pytest.mark.parametrize("seed", [1, 3])   # (table loading; 3: the target braked)
+def test_the_diffrax_batch_gives_each_member_the_metrics_of_its_record(seed):
+    """The diffrax backend's compiled metrics solve carries the first-impact record through its
+    segment loop and ends with :func:`lsc.metrics.metrics`, each member with its own ``g``:
+    its metrics are the one function's of the record built here from each member's exact solve
+    (its events and series), to the integrator's tolerance."""
+    pytest.importorskip("diffrax")
+    from lsc.model import HybridModel
+    from lsc.solvers import backend
+    scene = lsc.Scene.load(two_vehicle_scene(seed))
+    values = {"vehicles.0.speed": np.array([2.5, 5.0, 7.5]), "g": np.array([3.7, 9.81, 24.8])}
+    out = backend("diffrax").solve_batch(HybridModel(scene), values, rtol=1e-12)
+    assert list(out["status"]) == ["ok"] * 3
+    for j in range(3):
+        r = lsc.solve(scene.with_values({path: float(v[j]) for path, v in values.items()}),
+                      method="exact")
+        want = metrics_of(r, record_from_events(r))
+        for name in METRICS:
+            np.testing.assert_allclose(out["metrics"][name][j], want[name], rtol=1e-8,
+                                       atol=1e-12 * np.max(np.abs(want[name]), initial=1.0),
+                                       equal_nan=True, err_msg=name)
+        np.testing.assert_allclose(out["metrics"]["peak_acceleration_g"][j],
+                                   out["metrics"]["peak_acceleration"][j] / values["g"][j],
+                                   rtol=1e-15)
+
+
 # ------------------------------------------------------------------ series sampled on demand
 @pytest.fixture
 def sampler_calls(monkeypatch):

@@ -4,7 +4,6 @@ imports JAX): what :mod:`lsc.solvers.diffrax_ode` forwards to on first use.
 - :mod:`.compiled`: float64, the compilation cache, :class:`~.compiled.Compiled`, ``TRACES``;
 - :mod:`.wrappers`: the integrators and the solver wrappers;
 - :mod:`.dips`, :mod:`.peaks`: events and peaks inside a step;
-- :mod:`.first_impacts`: the metrics of a metrics solve;
 - :mod:`.core`: the segment loop, its status codes and cache;
 - :mod:`.single`: :func:`solve`; :mod:`.batch`: :func:`solve_batch`, :func:`solve_params`;
 - :mod:`.derivatives`: :func:`metrics_jacobian`.

@@ -4,7 +4,7 @@
 :meth:`lsc.solvers.base.Backend.solve_batch`): the members in chunks, ordered so that members
 that take similar paths share a chunk, each chunk one call of :func:`solve_params`, which vmaps
 the segment loop (without the records) over a batch of parameters and returns the Result
-metrics per member, with the Result's definitions (:mod:`.first_impacts`).
+metrics per member, with the Result's definitions (:func:`lsc.metrics.metrics`).
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def solve_params(model, params_batch, *, integrator: str = "Dopri8", rtol: float
     (``compile_time``, ``wall_time`` [s], ``size``). Peaks of force and acceleration are taken
     at the events and, where they can lie between events (damping laws, braking, chains), at the
     extrema inside every step's dense output. ``horizon`` [s] (scalar or (B,)): when a contact
-    still closed is an error (default: a million contact times of each member); ``g``
+    still closed is an error (default: each member's :meth:`HybridModel.horizon`); ``g``
     [acceleration] (scalar or (B,)): for ``peak_acceleration_g`` (default the scene's).
     """
     check_settings(integrator, rtol, atol, max_steps, max_events)
@@ -74,16 +74,14 @@ def solve_params(model, params_batch, *, integrator: str = "Dopri8", rtol: float
         raise ValueError("params_batch needs at least one batched leaf, all of one batch size "
                          f"(got sizes {sorted(sizes)})")
     p = jax.tree_util.tree_unflatten(tree, [f64(a) for a in leaves])
+    g = model.scene.g if g is None else g  # scalar or (B,)
     out, compile_time, wall = core.run_batched(
         jax.tree_util.tree_unflatten(tree, axes), p, f64(rtol),
         f64(np.nan if atol is None else atol), f64(np.nan if t_end is None else t_end),
-        f64(np.nan if horizon is None else horizon))
+        f64(np.nan if horizon is None else horizon), f64(g))
     out = to_numpy(out)
     status = out["status"].astype(int)
-    res = {name: np.array(out[name], float) for name in BATCH_METRICS if name in out}
-    g = model.scene.g if g is None else g  # scalar or (B,)
-    res["peak_acceleration_g"] = res["peak_acceleration"] / np.reshape(np.asarray(g, float),
-                                                                       (-1, 1))
+    res = {name: np.array(out[name], float) for name in BATCH_METRICS}
     for name in BATCH_METRICS:
         res[name][status != 0] = np.nan
     res["status"] = status
@@ -168,7 +166,7 @@ def _solve_chunks(model, members, p, g, metrics, status, progress, chunk, worker
     order = _work_order(jax.tree_util.tree_unflatten(tree, batch))
     members, g = members[order], np.asarray(g, float)[order]
     batch = [b[order] for b in batch]
-    horizon = _horizons(jax.tree_util.tree_unflatten(tree, batch))
+    horizon = model.horizon(jax.tree_util.tree_unflatten(tree, batch))
     varies = [bool(np.any(b != np.asarray(a, float))) for a, b in zip(leaves, batch)]
     if not any(varies):  # every member is the base scene: batch one leaf all the same
         varies[0] = True
@@ -205,38 +203,6 @@ def _solve_chunks(model, members, p, g, metrics, status, progress, chunk, worker
     else:
         for lo in starts[1:]:
             store(*solve(lo))
-
-
-def _horizons(p: dict) -> np.ndarray:
-    """:meth:`HybridModel.horizon` of every member (n,) [s] of the batched parameters ``p``: a
-    million contact times on the softest slope and the heaviest pair, plus four times what
-    closing every gap and crossing every table takes at the slowest initial closing speed."""
-    m, v0 = p["m"], p["v0"]
-    n = m.shape[0]
-    mu = np.max(m[:, :-1] * m[:, 1:] / (m[:, :-1] + m[:, 1:]), axis=1)
-    slopes = [np.abs(np.reshape(c[key], (n, -1))) for c in p["contacts"]
-              for key in ("ls", "su", "k") if key in c]
-    if slopes:
-        s = np.concatenate(slopes, axis=1)
-        s = np.where(np.isfinite(s) & (s > 0), s, np.inf)
-        k = np.min(s, axis=1)
-        k = np.where(np.isfinite(k), k, 1.0)
-    else:
-        k = np.ones(n)
-    v_scale = np.maximum(np.maximum(np.max(np.abs(v0), axis=1),
-                                    np.max(np.abs(np.diff(v0, axis=1)), axis=1)), 1e-300)
-    w = -np.diff(v0, axis=1)
-    w = np.where(w > 1e-12 * v_scale[:, None], w, np.inf)
-    w_min = np.min(w, axis=1)
-    w_min = np.where(np.isfinite(w_min), w_min, v_scale)
-    extent = np.sum(p["gap"], axis=1)
-    for c in p["contacts"]:
-        for key in ("ld", "ud"):
-            if key in c:
-                val = np.abs(np.reshape(c[key], (n, -1)))
-                val = np.where(val < 1e299, val, 0.0)
-                extent = extent + np.max(val, axis=1)
-    return 1e6 * np.sqrt(mu / k) + 4.0 * extent / w_min + 1.0
 
 
 def _work_order(p: dict) -> np.ndarray:

@@ -11,13 +11,14 @@ law's :data:`~lsc.contact.STATUS` codes raise the same :class:`~lsc.errors.Simul
 NumPy backends: :func:`status_message`).
 
 Steps. diffrax's PID controller picks the steps (:mod:`.wrappers`); none is longer than
-``MAX_ANGLE / ω`` for the highest natural frequency ``ω`` of the loaded contacts (as in the SciPy
-backend: a step over half an oscillation can cross an event surface and come back unseen).
+:meth:`HybridModel.max_step` (as in the SciPy backend: a step over half an oscillation can cross
+an event surface and come back unseen). The scales, default tolerances, frame and end-of-crash
+test are the model's (written once for NumPy and ``jax.numpy``).
 
 Frame. Each segment is integrated in its own frame, as in the SciPy backend: positions from
 where the vehicles are at its start, less the motion of the centre of mass (velocities less its
 velocity; not with brakes), each contact's gap set to minus its deformation there
-(:meth:`SegmentLoop._frame`). A deformation is then resolved to its own ulps, not to those of the
+(:meth:`HybridModel.frame`). A deformation is then resolved to its own ulps, not to those of the
 positions: after a metre of travel a near-plastic rebound (``e = 1e-6``, ``1e-12`` of the
 deformation wide) lost most of its width to the rounding of the positions, accumulated over
 the steps of the rebound.
@@ -31,7 +32,8 @@ ahead of its surface, however close, is left as it is: it fires when it is cross
 restitution 1e-6 is ``1e-12`` of the deformation wide).
 
 A :class:`SegmentLoop` runs in two modes: ``record`` (single solves: events, segments and the step
-nodes for a Result) and metrics only (batches and derivatives: :mod:`.first_impacts`).
+nodes for a Result) and metrics only (batches and derivatives: the first-impact record and
+the metrics of :mod:`lsc.metrics`).
 :func:`segment_loop` caches one per structure and static options.
 """
 
@@ -46,23 +48,16 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 from jax import lax  # noqa: E402
 
+from ... import metrics as M  # noqa: E402
 from ...contact import STATUS  # noqa: E402
 from ...errors import SceneError  # noqa: E402
+from ...moving_frame import Frame  # noqa: E402
 from .dips import EVENT_TOL, THETA, EventSearch  # noqa: E402
-from .first_impacts import (FIRST_KEYS, carry_metrics, first_event,  # noqa: E402
-                            first_impacts_init, fold_first, impact_ongoing)
 from .peaks import PeakSearch  # noqa: E402
 from .wrappers import INTEGRATORS, SOLVERS, Stash, Unrolled, with_tols  # noqa: E402
 
 __all__ = ["STATUS_CODES", "RECORD_FULL", "SegmentLoop", "segment_loop", "check_settings",
            "status_message"]
-
-#: Longest step, in radians of the fastest natural oscillation of the frozen contacts (the SciPy
-#: backend's ``MAX_ANGLE``): diffrax sees an event only at the ends of a step, so a step longer
-#: than half an oscillation can cross an event surface and come back unseen (a rebound of
-#: e = 1e-6 lasts 1e-6 of the compression), and an embedded error estimate over longer steps of
-#: an oscillation is unreliable.
-MAX_ANGLE = 0.5
 
 # Backend status codes (the law codes 1..5 are lsc.contact.STATUS).
 MAX_EVENTS, NO_EVENT, SOLVER_FAILED, NON_FINITE, T_END_EARLY, RECORD_FULL = 10, 11, 12, 13, 14, 15
@@ -83,65 +78,11 @@ STATUS_CODES = {
     RECORD_FULL: "more steps in all than the dense record holds (4 x max_steps): raise max_steps",
 }
 
-# The unit of each kind of event value (for its scale); any other kind: a length.
-_EVENT_UNITS = {"vmax": "velocity", "turn": "velocity", "recompress": "velocity",
-                "stop": "velocity", "break_forward": "force", "break_backward": "force",
-                "failure": "force"}
-
-
-def _event_unit(part, kind: str) -> str:
-    if kind == "separate" and getattr(part, "name", "") == "kelvin":
-        return "force"  # k D + c Ḋ
-    return _EVENT_UNITS.get(kind, "length")
-
-
-def _time_scale(p, keys):
-    """``HybridModel.time_scale`` in jnp: the lightest pair on the stiffest of the contacts'
-    slopes named by ``keys`` [s]."""
-    m = p["m"]
-    mu = jnp.min(m[:-1] * m[1:] / (m[:-1] + m[1:]))
-    slopes = [jnp.abs(jnp.reshape(c[key], (-1,))) for c in p["contacts"]
-              for key in keys if key in c]
-    k = jnp.max(jnp.concatenate([jnp.where(jnp.isfinite(s), s, 0.0) for s in slopes])) \
-        if slopes else jnp.asarray(0.0)
-    return jnp.sqrt(mu / jnp.where(k > 0, k, 1.0))
-
-
-def _scales(p):
-    """Speed [velocity], contact time [s] and force [force] scales (the first two as
-    HybridModel.v_scale and time_scale; the force one ``μ v / t``, the linear F_max), and the
-    contact time of the loading slopes alone [s] (``time_scale(loading=True)``)."""
-    v = p["v0"]
-    v_scale = jnp.maximum(jnp.maximum(jnp.max(jnp.abs(v)), jnp.max(jnp.abs(jnp.diff(v)))), 1e-300)
-    m = p["m"]
-    mu = jnp.min(m[:-1] * m[1:] / (m[:-1] + m[1:]))
-    t_scale = _time_scale(p, ("ls", "su", "k"))
-    return v_scale, t_scale, mu * v_scale / t_scale, _time_scale(p, ("ls", "k"))
-
-
 def _law_status(disc):
     """First nonzero law status code over the contacts' states (0 if none), and that contact."""
     st = jnp.stack([d["status"] for d in disc])
     k = jnp.argmax(st != 0)
     return st[k].astype(jnp.int32), k.astype(jnp.int32)
-
-
-def _frame_of(t0, x0, V, p):
-    """A segment's frame from its start time ``t0``, the positions ``x0`` (N,) there and ``V``:
-    the segment's parameters, ``to_abs(t, u)`` and ``to_frame(t, y)`` (states (..., n) at times
-    (...)); see :meth:`SegmentLoop._frame`."""
-    N = x0.shape[0]
-    pf = dict(p, gap=-(x0[:-1] - x0[1:] - p["gap"]))
-
-    def shift(t):
-        return x0 + V * (jnp.asarray(t)[..., None] - t0)
-
-    def to_abs(t, u):
-        return u.at[..., :N].add(shift(t)).at[..., N:2 * N].add(V)
-
-    def to_frame(t, y):
-        return y.at[..., :N].add(-shift(t)).at[..., N:2 * N].add(-V)
-    return pf, to_abs, to_frame
 
 
 # ---------------------------------------------------------------------------- the solver
@@ -168,9 +109,6 @@ class SegmentLoop(EventSearch, PeakSearch):
         self.term = diffrax.ODETerm(self._vf)
         # stops at the end of the step where the first event crosses; _locate finds the root
         self.event = diffrax.Event(self._cond, None, direction=False)
-        units = [_event_unit(model.parts[j], model.parts[j].event_kinds[w])
-                 for j, w in model.events]
-        self.ev_unit = np.array([{"length": 0, "velocity": 1, "force": 2}[u] for u in units])
         self.fail_contacts = [f.k for f in model.failures]
         # contacts whose law follows a post-failure curve and reports the failure itself
         self.fail_laws = [k for k, law in enumerate(model.laws) if getattr(law, "fails", False)]
@@ -204,67 +142,30 @@ class SegmentLoop(EventSearch, PeakSearch):
             return canon(self.model.apply_event(i, t, y, disc, p, jnp))
         return transition
 
-    def _frame(self, t0, y, p):
-        """The coordinates a segment starting at ``(t0, y)`` is integrated in (as the SciPy
-        backend's ``_Frame``): positions from where the vehicles are at ``t0``, less the motion of
-        the centre of mass ``V (t - t0)`` (``V = 0`` with brakes, which need each vehicle's own
-        velocity), velocities less ``V``; contact ``k``'s gap becomes ``-D0_k`` so that its
-        deformation is ``D0_k + (u_k - u_{k+1})``, resolved to its own ulps, not the positions'.
-        Returns the frame state, the segment's parameters, ``to_abs(t, u)`` (``u``: (n,) or
-        (B, n) at times (B,)) and ``V``."""
-        N = self.model.N
-        V = jnp.asarray(0.0) if self.model.brakes else jnp.sum(p["m"] * y[N:2 * N]) / jnp.sum(p["m"])
-        pf, to_abs, _ = _frame_of(t0, y[:N], V, p)
-        return y.at[:N].set(0.0).at[N:2 * N].add(-V), pf, to_abs, V
-
-    def _apart(self, t, y, disc, p, v_scale, horizon):
-        """HybridModel.contacts_apart in jnp: every contact open, none closing again before
-        ``horizon`` [s] (the crash horizon)."""
-        return self.model.contacts_apart(y, disc, t, horizon, p, jnp, v_scale)
-
-    def _dtmax(self, disc, p):
-        """Longest step [s] in discrete state ``disc``: ``MAX_ANGLE / ω`` for the Gershgorin bound
-        ``ω`` of :meth:`HybridModel.natural_frequency` (``inf`` when no contact is loaded)."""
-        w = self.model.natural_frequency(disc, p, jnp)
-        return jnp.where(w > 0, MAX_ANGLE / jnp.where(w > 0, w, 1.0), jnp.inf)
-
-
-    def _over(self, t, y, disc, p, v_scale, horizon):
-        """HybridModel.is_over in jnp: contacts apart and no braked vehicle sliding."""
-        m = self.model
-        apart = self._apart(t, y, disc, p, v_scale, horizon)
-        for st in disc[m.K: m.K + len(m.brakes)]:
-            apart = apart & (st["mode"] == 0)
-        return apart
-
-    def _run(self, p, rtol, atol, t_end, horizon, record: bool):
+    def _run(self, p, rtol, atol, t_end, horizon, record: bool, g=None):
         """The whole hybrid solve. ``t_end``, ``horizon`` [s]: NaN when not given (the horizon:
-        when a contact that has not separated is an error; default ``1e6`` contact times).
+        when a contact that has not separated is an error; default :meth:`HybridModel.horizon`).
         ``record``: keep events, segments and step nodes for a Result (single solves); else only
-        the metrics (batches)."""
+        the metrics (batches), ``peak_acceleration_g`` in units of ``g`` [acceleration]."""
         TRACES["core"] += 1
         m = self.model
         N, K, E, S, C, n = m.N, m.K, self.max_events, self.max_steps, self.capacity, m.n_state
-        v_scale, t_scale, f_scale, t_load = _scales(p)
-        sc = jnp.stack([v_scale * t_scale, v_scale, f_scale])[jnp.asarray(self.ev_unit)]
-        rv = rtol * v_scale  # default atol: positions, velocities, work integrals (as SciPy)
+        v_scale = m.speed_scale(p, jnp)
+        sc = m.event_scales(p, jnp)
+        # default atol: positions, velocities, work integrals (as SciPy); per segment, positions
+        # to rtol of the active pieces' own scale (a near-plastic rebound line's width)
         own_atol = ~jnp.isnan(atol)
-        atol = jnp.where(own_atol, atol, jnp.concatenate([
-            jnp.full(N, rv * t_load), jnp.full(N, rv),
-            jnp.full(n - 2 * N, rv * v_scale * jnp.min(p["m"]))]))
-        atol = jnp.broadcast_to(atol, (n,))
+        atol = jnp.broadcast_to(jnp.where(own_atol, atol, m.default_atol(rtol, None, p, jnp)),
+                                (n,))
 
         def segment_atol(disc):
-            """Positions to ``rtol`` of the active pieces' own scale (HybridModel.position_time:
-            a near-plastic rebound line's width), unless the atol was given."""
-            x_tol = rv * m.position_time(disc, t_load, p, jnp)
-            return jnp.where(own_atol, atol, atol.at[:N].set(x_tol))
+            return jnp.where(own_atol, atol, m.default_atol(rtol, disc, p, jnp))
 
         # a dip inside a step less deep than this (over each event's scale) only touches the
         # surface (as the SciPy backend's: 100 rtol, the global error of a deformation)
         depth = jnp.maximum(EVENT_TOL, 100 * rtol)
         has_t_end = ~jnp.isnan(t_end)
-        crash = jnp.where(jnp.isnan(horizon), 1e6 * t_scale + 1.0, horizon)
+        crash = jnp.where(jnp.isnan(horizon), m.horizon(p, jnp), horizon)
         horizon = jnp.where(has_t_end, t_end, crash)
         # a contact that would close again only after this has no crash left in it
         over_by = jnp.where(has_t_end, jnp.maximum(crash, t_end), crash)
@@ -281,7 +182,7 @@ class SegmentLoop(EventSearch, PeakSearch):
         law0, lawk0 = _law_status(disc0[:K])
         c = {"t": jnp.asarray(0.0), "y": y0, "disc": disc0, "status": law0,
              "status_contact": lawk0, "n_ev": jnp.int32(0), "n_seg": jnp.int32(0),
-             "finished": self._over(0.0, y0, disc0, p, v_scale, over_by) & ~has_t_end,
+             "finished": m.is_over(y0, disc0, 0.0, over_by, p, jnp, v_scale) & ~has_t_end,
              "steps": jnp.int32(0), "rejected": jnp.int32(0)}
         if record:
             c.update({
@@ -302,20 +203,21 @@ class SegmentLoop(EventSearch, PeakSearch):
             for k in self.fail_laws:
                 fail_t = fail_t.at[k].set(jnp.where(disc0[k]["failed"] > 0, 0.0, jnp.nan))
             closed0 = contact_modes(disc0) != 0
-            c.update(first_impacts_init(closed0, y0[N:2 * N], F0, a0))
+            c.update(M.first_impacts_init(closed0, y0[N:2 * N], F0, a0, jnp))
             c.update({"y_post": y0, "separated": False,
                       "separation_time": jnp.full(K, jnp.nan), "failure_time": fail_t})
 
         def body(c):
             t, disc = c["t"], c["disc"]
-            y, pf, to_abs, v_frame = self._frame(t, c["y"], p)   # the segment's frame
+            frame = m.frame(t, c["y"], p, jnp)   # the segment's frame
+            y, pf = frame.to_frame(t, c["y"], jnp), frame.params(p)
             # (then free flight to t_end, events disarmed)
-            over = self._over(t, y, disc, pf, v_scale, over_by)
+            over = m.is_over(y, disc, t, over_by, pf, jnp, v_scale)
             g0 = m.event_values(t, y, disc, pf, jnp) / sc
             off = jnp.where(g0 <= 0, EVENT_TOL - g0, 0.0)  # the restart trap
             args = (disc, pf, off, sc, ~over, depth)
             controller = diffrax.PIDController(rtol=rtol, atol=segment_atol(disc),
-                                               dtmax=self._dtmax(disc, p))
+                                               dtmax=m.max_step(disc, p, jnp))
             sol = diffrax.diffeqsolve(
                 self.term, stepper, t, horizon, None, y, args=args,
                 saveat=diffrax.SaveAt(steps=record, t1=True, solver_state=True),
@@ -337,22 +239,22 @@ class SegmentLoop(EventSearch, PeakSearch):
             # the event applied to the absolute state (as SciPy's): a law's reference
             # deformations (D_max, from which a rebound of e = 1e-6, 16 ulps of D_max wide,
             # is measured) are then the next segment's frame origin to the last bit
-            new = lax.switch(i, self.branches, tn, to_abs(tn, yn), disc, p)
+            new = lax.switch(i, self.branches, tn, frame.to_abs(tn, yn, jnp), disc, p)
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(fired, a, b), new, disc)
             law, lawk = _law_status(new[:K])
             n_ev = c["n_ev"] + fired.astype(jnp.int32)
             at_end = has_t_end & (tn >= t_end)
             # reaching t_end with only braked vehicles still sliding is no failure (as SciPy)
-            finished = (self._over(tn, yn, new, pf, v_scale, over_by)
+            finished = (m.is_over(yn, new, tn, over_by, pf, jnp, v_scale)
                         & (~has_t_end | at_end)) | \
-                (at_end & ~fired & self._apart(tn, yn, new, pf, v_scale, over_by))
+                (at_end & ~fired & m.contacts_apart(yn, new, tn, over_by, pf, jnp, v_scale))
             finite = jnp.all(jnp.isfinite(yn)) & jnp.isfinite(tn)
             status = jnp.select(
                 [~ok, ~finite, law != 0, ~fired & ~over & ~finished, ~finished & (n_ev >= E)],
                 [SOLVER_FAILED, NON_FINITE, law, jnp.where(has_t_end, T_END_EARLY, NO_EVENT),
                  MAX_EVENTS], 0).astype(jnp.int32)
             out = dict(c)
-            yf, yn = yn, to_abs(tn, yn)   # (the frame's state, and the absolute one)
+            yf, yn = yn, frame.to_abs(tn, yn, jnp)   # (the frame's state, and the absolute one)
             out.update({
                 "t": tn, "y": yn, "disc": new, "status": status,
                 "status_contact": jnp.where(law != 0, lawk, c["status_contact"]),
@@ -362,7 +264,8 @@ class SegmentLoop(EventSearch, PeakSearch):
             if record:
                 j, n0, e = c["n_seg"], c["n_nodes"], c["n_ev"]
                 ts = jnp.where(jnp.isfinite(sol.ts), sol.ts, t)   # (unused rows: inf)
-                saved = jnp.concatenate([sol.ts[:, None], to_abs(ts, sol.ys)], axis=1)
+                saved = jnp.concatenate([sol.ts[:, None], frame.to_abs(ts, sol.ys.T, jnp).T],
+                                        axis=1)
                 saved = saved.at[last].set(jnp.where(nacc > 0, jnp.concatenate([tn[None], yn]),
                                                      saved[last]))
                 block = jnp.concatenate([jnp.concatenate([t[None], c["y"]])[None], saved])
@@ -373,7 +276,7 @@ class SegmentLoop(EventSearch, PeakSearch):
                     "n_nodes": n0 + 1 + nacc,
                     "seg": lax.dynamic_update_slice(c["seg"], jnp.stack([n0, n0 + nacc, e])[None],
                                                     (j, jnp.int32(0))),
-                    "frame": c["frame"].at[j].set(jnp.concatenate([c["y"][:N], v_frame[None]])),
+                    "frame": c["frame"].at[j].set(jnp.concatenate([frame.x0, frame.V[None]])),
                     "rec": lax.dynamic_update_slice(c["rec"], row[None], (e, jnp.int32(0)))})
             else:
                 # metrics: each contact's first impact (peaks at the event points before and
@@ -391,14 +294,14 @@ class SegmentLoop(EventSearch, PeakSearch):
                 for k in self.fail_laws:
                     now = fired & (disc[k]["failed"] == 0) & (new[k]["failed"] > 0)
                     fail_t = fail_t.at[k].set(jnp.where(now & jnp.isnan(fail_t[k]), tn, fail_t[k]))
-                first = {key: c[key] for key in FIRST_KEYS}
-                ongoing = impact_ongoing(first)   # in this segment, up to the event (before it)
-                first = fold_first(first, Fb, ab, ongoing)
+                first = {key: c[key] for key in M.FIRST_KEYS}
+                ongoing = M.ongoing(first, jnp)   # in this segment, up to the event (before it)
+                first = M.fold_peaks(first, Fb, ab, ongoing, jnp)
                 if track:  # between the events: all steps, and the last one up to the event
-                    first = fold_first(first, *step_peaks, ongoing)
-                    first = fold_first(first, *self._last_peaks(tp, tn, yp, args), ongoing)
-                first = first_event(first, tn, yn[N:2 * N], closes, opens)
-                first = fold_first(first, Fa, aa, impact_ongoing(first))   # after the event
+                    first = M.fold_peaks(first, *step_peaks, ongoing, jnp)
+                    first = M.fold_peaks(first, *self._last_peaks(tp, tn, yp, args), ongoing, jnp)
+                first = M.event_update(first, tn, yn[N:2 * N], closes, opens, jnp)
+                first = M.fold_peaks(first, Fa, aa, M.ongoing(first, jnp), jnp)   # after it
                 out.update(first)
                 out.update({
                     "failure_time": fail_t,
@@ -414,7 +317,7 @@ class SegmentLoop(EventSearch, PeakSearch):
             out["disc0"] = flat(disc0)
             out.update({k: c[k] for k in ("rec", "seg", "nodes", "n_nodes", "frame")})
         else:
-            out.update(carry_metrics(m, c))
+            out.update(self._metrics(c, g))
         return out
 
     def _sample(self, p, rtol, atol, discs, st0, st1, sy0, sdisc, sframe, sts):
@@ -429,34 +332,48 @@ class SegmentLoop(EventSearch, PeakSearch):
         N = self.model.N
 
         def values(t0, t1, y0, d, fr, ts):
-            pf, to_abs, to_frame = _frame_of(ts, fr[:N], fr[N], p)
-            args = (unflat(discs[d], self.disc_like), pf)
-            u0 = to_frame(t0, y0)
+            frame = Frame(ts, fr[:N], fr[N])
+            args = (unflat(discs[d], self.disc_like), frame.params(p))
+            u0 = frame.to_frame(t0, y0, jnp)
             dense = solver.step(term, t0, t1, u0, args, solver.init(term, t0, t1, u0, args),
                                 False)[2]
             h = jnp.where(t1 > t0, t1 - t0, 1.0)
             interp = solver.interpolation_cls(t0=t0, t1=t0 + h, **dense)
             tt = t0 + theta * h
-            return to_abs(tt, jax.vmap(interp.evaluate)(tt))
+            return frame.to_abs(tt, jax.vmap(interp.evaluate)(tt).T, jnp).T
 
         return jax.vmap(values)(st0, st1, sy0, sdisc, sframe, sts)
 
-    def run_metrics(self, p, rtol, atol, t_end, horizon):
+    def _metrics(self, c, g):
+        """The Result metrics (:func:`lsc.metrics.metrics`) from the final carry ``c`` of a
+        metrics solve: the headline metrics from the first-impact record, the contacts' records
+        and ``v_final`` (after the last separation) over the run."""
+        N, K = self.model.N, self.model.K
+        records = {key: jnp.stack([d[key] for d in c["disc"][:K]])
+                   for key in ("dmax", "dperm", "ec", "er")}
+        post = jnp.where(c["separated"], c["y_post"], c["y"])
+        return M.metrics({key: c[key] for key in M.FIRST_KEYS}, records, post[N:2 * N], g,
+                         c["failure_time"], c["t"], c["y"][N:2 * N], jnp,
+                         separation_time=c["separation_time"])
+
+    def run_metrics(self, p, rtol, atol, t_end, horizon, g):
         """The metrics solve of parameters ``p``, traced (not compiled: to be wrapped in ``vmap``
         or ``jvp``): the batch metrics, ``status``, ``status_contact``, ``t``, ``steps`` and
-        ``segments``. ``t_end``, ``horizon`` [s]: NaN when not given."""
-        return self._run(p, rtol, atol, t_end, horizon, False)
+        ``segments``. ``t_end``, ``horizon`` [s]: NaN when not given; ``g`` [acceleration]: the
+        unit of ``peak_acceleration_g``."""
+        return self._run(p, rtol, atol, t_end, horizon, False, g)
 
-    def run_batched(self, axes, p, rtol, atol, t_end, horizon):
-        """The metrics solve vmapped over the parameter leaves whose axis is 0 in ``axes``."""
+    def run_batched(self, axes, p, rtol, atol, t_end, horizon, g):
+        """The metrics solve vmapped over the parameter leaves whose axis is 0 in ``axes`` (and
+        over ``horizon`` and ``g`` where they are arrays (B,))."""
         key = jax.tree_util.tree_flatten(axes, is_leaf=lambda x: x is None)
-        key = (key[1], tuple(key[0]), np.ndim(horizon))
+        key = (key[1], tuple(key[0]), np.ndim(horizon), np.ndim(g))
         fn = self.batched.get(key)
         if fn is None:
             fn = self.batched[key] = Compiled(jax.vmap(
-                self.run_metrics,
-                in_axes=(axes, None, None, None, 0 if np.ndim(horizon) else None)))
-        return fn(p, rtol, atol, t_end, horizon)
+                self.run_metrics, in_axes=(axes, None, None, None, 0 if np.ndim(horizon) else None,
+                                           0 if np.ndim(g) else None)))
+        return fn(p, rtol, atol, t_end, horizon, g)
 
 
 

@@ -40,10 +40,10 @@ def _jacobian(model, integrator: str, max_steps: int, max_events: int) -> Compil
     if fn is None:
         loop = SegmentLoop(model, integrator, max_steps, max_events, differentiable=True)
 
-        def jac(p, T, rtol, atol, t_end, horizon):
+        def jac(p, T, rtol, atol, t_end, horizon, g):
             def run(theta):
                 q = jax.tree_util.tree_map(lambda a, t: a + jnp.tensordot(theta, t, axes=1), p, T)
-                out = loop.run_metrics(q, rtol, atol, t_end, horizon)
+                out = loop.run_metrics(q, rtol, atol, t_end, horizon, g)
                 mets = {k: out[k] for k in DIFFERENTIATED if k in out}
                 aux = {k: out[k] for k in ("status", "status_contact", "t", "steps", "segments")}
                 return mets, (mets, aux)
@@ -78,7 +78,7 @@ def metrics_jacobian(model, tangents, *, params=None, integrator: str = "Dopri8"
     T = jax.tree_util.tree_map(lambda *xs: np.stack([np.asarray(x, float) for x in xs]), *padded)
     horizon = float(model.horizon())
     args = (f64(rtol), f64(np.nan if atol is None else atol), f64(np.nan),
-            f64(horizon if np.isfinite(horizon) else np.nan))
+            f64(horizon if np.isfinite(horizon) else np.nan), f64(model.scene.g))
     (jac, (prim, aux)), compile_time, wall = fn(p, T, *args)
     status = int(aux["status"])
     if status:
