@@ -112,6 +112,18 @@ def _check_conservation(r):
     assert energy_error(r) <= 1e-12, energy_error(r)
 
 
+def _tie_order(events, t_last):
+    """``events`` (time, index, kind) with each run of events less than 1e-10 of ``t_last``
+    apart sorted by contact and kind (their order within the run is rounding's)."""
+    out, run = [], []
+    for e in events:
+        if run and e[0] - run[-1][0] > 1e-10 * t_last:
+            out += sorted(run, key=lambda x: x[1:])
+            run = []
+        run.append(e)
+    return out + sorted(run, key=lambda x: x[1:])
+
+
 @settings(max_examples=MODAL_CASES)
 @given(chains(e_min=0.2, pushed_shut=False))
 def test_chains_match_the_independent_modal_solution(scene):
@@ -138,6 +150,9 @@ def test_chains_match_the_independent_modal_solution(scene):
                             t_last)
     theirs = _without_touches(_after_touching([(t, j, KINDS[kind]) for t, j, kind in events],
                                               gaps), t_last)
+    # (events of different contacts at one instant, to 1e-10 of the run — a symmetric chain's
+    # two max deformations — come in the order rounding gives them: compared as a set)
+    ours, theirs = _tie_order(ours, t_last), _tie_order(theirs, t_last)
     assert [e[1:] for e in ours] == [e[1:] for e in theirs]
     t, t_ref = np.array([e[0] for e in ours]), np.array([e[0] for e in theirs])
     # (times to 1e-8: a contact closing after a long flight at a small closing rate, a
