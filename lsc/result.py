@@ -412,7 +412,7 @@ def _failure_times(scene, events, rows) -> np.ndarray:
 def _check_series(method: str, series: dict) -> None:
     """Raise :class:`SimulationError` if a series (or a row at the events) is not finite."""
     present = [name for name in _SERIES_KINDS if name in series]
-    flat = np.concatenate([np.ravel(series[name]) for name in present] or [()])
+    flat = np.concatenate([series[name].ravel() for name in present] or [()])
     if np.isfinite(flat).all():   # the common case, in one call; else name the bad ones
         return
     bad = [name for name in present if not np.all(np.isfinite(series[name]))]
@@ -448,7 +448,7 @@ def _all_finite(r: Result) -> bool:
     """Whether every metric and total is finite, ``failure_time`` NaN or finite (the common
     case, told with one NumPy call; the documented NaN otherwise is checked one by one)."""
     values = [getattr(r, name) for name in (*METRICS, *TOTALS) if name != "failure_time"]
-    flat = np.concatenate([np.ravel(v) for v in values])
+    flat = np.concatenate([v.ravel() if isinstance(v, np.ndarray) else (v,) for v in values])
     return bool(np.isfinite(flat).all()) and not bool(np.isinf(r.failure_time).any())
 
 
