@@ -63,8 +63,8 @@ class Impact:
         return self.t_end - self.t_start
 
 
-def _parts(kind: str) -> set:
-    return set(kind.split("+"))
+def _parts(kind: str) -> list:
+    return kind.split("+")
 
 
 def episodes(events, K: int, t_last: float) -> list[tuple[int, float, float, bool]]:
@@ -148,7 +148,9 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
     K = rows["deformation"].shape[1]
     found = episodes(events, K, float(t[-1]))
     t_post = max((e[2] for e in found if e[3]), default=np.nan)
-    count = np.bincount([e[0] for e in found], minlength=K)
+    count = [0] * K
+    for e in found:
+        count[e[0]] += 1
     impacts = []
     for k, t0, t1, separated in found:
         span = _rows(t, t0, t1)
