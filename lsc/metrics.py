@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
+__all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
            "event_update", "restitution", "in_g", "headline", "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
@@ -172,3 +172,16 @@ def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
     if separation_time is not None:
         out["separation_time"] = separation_time
     return out
+
+
+#: The values :func:`metrics` gives per contact (with the contact axis last).
+PER_CONTACT = ("max_deformation", "permanent_deformation", "peak_force", "restitution",
+               "restitution_energy", "energy_absorbed", "energy_returned", "contact_time",
+               "separation_time", "failure_time")
+
+
+def one_contact(out: dict) -> dict:
+    """The metrics of a one-contact scene (:func:`metrics`' output) with the contact axis of
+    the per-contact values (:data:`PER_CONTACT`) dropped: ``(...)`` rather than ``(..., 1)``."""
+    return {name: (val[..., 0] if np.ndim(val) and name in PER_CONTACT else val)
+            for name, val in out.items()}

@@ -108,14 +108,7 @@ def metrics(m1, m2, v1, v2, k, e, gap=0.0, g=1.0, failure_force=np.nan) -> dict:
                            first["first_end"][..., 0], cf["v_final"],
                            separation_time=first["first_end"])
     # one contact: its values (...) rather than (..., 1)
-    return {name: (val[..., 0] if np.ndim(val) and name in _PER_CONTACT else val)
-            for name, val in out.items()}
-
-
-#: The metrics of :func:`metrics` given per contact (one contact: returned without that axis).
-_PER_CONTACT = ("max_deformation", "permanent_deformation", "peak_force", "restitution",
-                "restitution_energy", "energy_absorbed", "energy_returned", "contact_time",
-                "separation_time", "failure_time")
+    return _metrics.one_contact(out)
 
 
 def relative_motion(t, v0, w, e, gap, k=None):

@@ -193,20 +193,13 @@ def metrics(m1, m2, v1, v2, k, zeta, gap=0.0, g=1.0, failure_force=np.nan) -> di
     t_fail = t_c + _unit_failure(z, ff / scale) / w
     out = _metrics.metrics(first, records, v_final, g, t_fail[..., None], t_sep, v_final,
                            separation_time=first["first_end"])
-    out = {name: (val[..., 0] if np.ndim(val) and name in _PER_CONTACT else val)
-           for name, val in out.items()}
+    out = _metrics.one_contact(out)
     out.update(max_deformation_time=t_c + h / w, peak_force_time=t_c + tau_p / w,
                separation_time=t_sep)
     return out
 
 
 # ------------------------------------------------------------------ the Result
-#: Metrics given per contact (one contact: returned without that axis).
-_PER_CONTACT = ("max_deformation", "permanent_deformation", "peak_force", "restitution",
-                "restitution_energy", "energy_absorbed", "energy_returned", "contact_time",
-                "separation_time", "failure_time")
-
-
 def _end_time(t_end, t_sep: float) -> float:
     """Where the series stop: at separation, or at ``t_end`` [s] if it does not cut the crash."""
     if t_end is None:
