@@ -20,6 +20,8 @@ failures'. Events are numbered in the same order; event ``i`` is event ``which``
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from .contact import STATUS, make_law
@@ -104,21 +106,22 @@ class HybridModel:
         self.event_units = tuple(_event_unit(self.parts[j], self.parts[j].event_kinds[w])
                                  for j, w in self.events)
         self.v_scale = float(self.speed_scale())
-        self.event_linear, self.piece_event = self._piece_layout()
 
     def features(self) -> frozenset[str]:
         """Everything this scene uses that a backend must solve (its contract,
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
         ``unloading:restitution``, ``law:kelvin``, ...), each effect's ``feature``
         (``effect:brake``, ``effect:failure``, ...), and ``gap:open`` / ``gap:overlap`` for
-        initial gaps above / below zero."""
-        out = set()
-        for law in self.laws:
-            out |= law.features()
-        out |= {part.feature for part in self.parts[self.K:]}
-        if np.any(np.asarray(self.params["gap"], float) > 0):
-            out.add("gap:open")
-        return frozenset(out)
+        initial gaps above / below zero (computed once: every backend's check reads it)."""
+        if "_features" not in self.__dict__:
+            out = set()
+            for law in self.laws:
+                out |= law.features()
+            out |= {part.feature for part in self.parts[self.K:]}
+            if np.any(np.asarray(self.params["gap"], float) > 0):
+                out.add("gap:open")
+            self._features = frozenset(out)
+        return self._features
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):
@@ -219,6 +222,16 @@ class HybridModel:
         vals.extend(self._effect_events(y, disc, p, xp))
         return xp.asarray([xp.broadcast_to(xp.asarray(v, dtype=float), xp.shape(D[0]))
                            for v in vals])
+
+    @cached_property
+    def event_linear(self) -> np.ndarray:
+        """(n_events,) bool: which events are linear in the state (each part's declaration)."""
+        return self._piece_layout()[0]
+
+    @cached_property
+    def piece_event(self) -> np.ndarray:
+        """(n_pieces,) int: the event each piece of :meth:`event_pieces` belongs to."""
+        return self._piece_layout()[1]
 
     def _piece_layout(self):
         """(``event_linear`` (n_events,) bool, ``piece_event`` (n_pieces,) int): which events are
@@ -331,8 +344,10 @@ class HybridModel:
     def speed_scale(self, p=None, xp=np):
         """The speed scale [velocity]: the largest initial speed or speed difference."""
         v = (self.params if p is None else p)["v0"]
-        fastest = xp.max(xp.abs(v), axis=-1)
-        closing = xp.max(xp.abs(xp.diff(v, axis=-1)), axis=-1)
+        # (reductions as array methods, differences as slices: a few times cheaper than
+        # xp.max and xp.diff on one scene's small arrays, and the same numbers)
+        fastest = xp.abs(v).max(axis=-1)
+        closing = xp.abs(v[..., 1:] - v[..., :-1]).max(axis=-1)
         return xp.maximum(xp.maximum(fastest, closing), 1e-300)
 
     def _slopes(self, p, keys, xp):
@@ -350,16 +365,16 @@ class HybridModel:
         not finite are left out; with none left the slope is 1."""
         p = self.params if p is None else p
         mus = self._mu(p, xp)
-        mu = xp.max(mus, axis=-1) if slowest else xp.min(mus, axis=-1)
+        mu = mus.max(axis=-1) if slowest else mus.min(axis=-1)
         s = self._slopes(p, ("ls", "k") if loading else ("ls", "su", "k"), xp)
         if s is None:
             return xp.sqrt(mu)
         valid = xp.isfinite(s) & (s > 0)
         if slowest:
-            k = xp.min(xp.where(valid, s, xp.inf), axis=-1)
+            k = xp.where(valid, s, xp.inf).min(axis=-1)
             k = xp.where(xp.isfinite(k), k, 1.0)
         else:
-            k = xp.max(xp.where(valid, s, 0.0), axis=-1)
+            k = xp.where(valid, s, 0.0).max(axis=-1)
             k = xp.where(k > 0, k, 1.0)
         return xp.sqrt(mu / k)
 
@@ -392,16 +407,16 @@ class HybridModel:
         p = self.params if p is None else p
         batch = xp.shape(p["m"])[:-1]
         v = self.speed_scale(p, xp)
-        w = -xp.diff(p["v0"], axis=-1)
-        w = xp.where(w > 1e-12 * xp.expand_dims(v, -1), w, xp.inf)
-        w_min = xp.min(w, axis=-1)
+        w = p["v0"][..., :-1] - p["v0"][..., 1:]
+        w = xp.where(w > 1e-12 * v[..., None], w, xp.inf)
+        w_min = w.min(axis=-1)
         w_min = xp.where(xp.isfinite(w_min), w_min, v)
-        extent = xp.sum(p["gap"], axis=-1)
+        extent = p["gap"].sum(axis=-1)
         for c in p["contacts"]:
             for key in ("ld", "ud"):   # (a table's last breakpoint: BIG, 1e300, is no extent)
                 if key in c:
                     val = xp.abs(xp.reshape(c[key], batch + (-1,)))
-                    extent = extent + xp.max(xp.where(val < 1e299, val, 0.0), axis=-1)
+                    extent = extent + xp.where(val < 1e299, val, 0.0).max(axis=-1)
         return 1e6 * self.time_scale(slowest=True, p=p, xp=xp) + 4.0 * extent / w_min + 1.0
 
     @property

@@ -73,7 +73,7 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         step = advance(t, y, disc, horizon)
         totals["steps"] += step.steps
         totals["nfev"] += step.nfev
-        if not np.all(np.isfinite(step.y)):
+        if not np.isfinite(step.y).all():
             raise SimulationError(f"the solution became non-finite near t = {step.t:.6g} s")
         segments.append(Segment(t, step.t, disc, step.dense))
         t, y = step.t, np.asarray(step.y, float)

@@ -32,7 +32,9 @@ class _ScalarTransitions:
             pp["wres"] = 0.0
 
     def __getattr__(self, name):
-        return getattr(self._model, name)
+        value = getattr(self._model, name)
+        self.__dict__[name] = value   # (looked up once per solve)
+        return value
 
     def is_over(self, y, disc, t=0.0, horizon=None):
         """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
