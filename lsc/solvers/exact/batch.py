@@ -36,41 +36,43 @@ EVENT_LIMIT, NO_EVENT = 10, 11
 class _Rows:
     """A per-member table standing in for one of the law's 1-D parameter arrays.
 
-    Held column-major, ``c[j, i]`` = entry ``j`` of member ``i`` (shape ``(n, B)``), possibly
-    restricted to members ``s0:s1``. ``rows[j]`` with an integer gives entry ``j`` of every member;
-    with an index array each member's own entry; a slice keeps a table. ``np.searchsorted(rows,
-    v)`` (NumPy forwards it to :meth:`searchsorted`) searches each member's own row for its own
-    ``v``. This lets the law's transition code, written for one scene's 1-D tables, run unchanged
-    on a batch.
+    Held column-major, ``c[j, i]`` = entry ``j`` of input member ``i`` (shape ``(n, B)``, never
+    copied), with ``ix`` the input member of each member in the batch's current order (the
+    stepper reorders its members every iteration: only ``ix`` follows, not the table).
+    ``rows[j]`` with an integer gives entry ``j`` of every member; with an index array each
+    member's own entry; a slice keeps a table. ``np.searchsorted(rows, v)`` (NumPy forwards it
+    to :meth:`searchsorted`) searches each member's own row for its own ``v``. This lets the
+    law's transition code, written for one scene's 1-D tables, run unchanged on a batch.
     """
 
-    __slots__ = ("c", "s0", "s1")
+    __slots__ = ("c", "ix")
 
-    def __init__(self, c, s0=0, s1=None):
-        self.c, self.s0, self.s1 = c, s0, c.shape[1] if s1 is None else s1
+    def __init__(self, c, ix=None):
+        self.c, self.ix = c, np.arange(c.shape[1]) if ix is None else ix
 
     def __getitem__(self, idx):
         if isinstance(idx, slice):
-            return _Rows(np.ascontiguousarray(self.c[idx]), self.s0, self.s1)
+            return _Rows(np.ascontiguousarray(self.c[idx]), self.ix)
         idx = np.asarray(idx)
         if idx.ndim == 0:
-            return self.c[int(idx), self.s0:self.s1]
-        flat = idx.astype(np.intp) * self.c.shape[1] + np.arange(self.s0, self.s1)
-        return self.c.reshape(-1)[flat]
+            return self.c[int(idx)].take(self.ix)
+        flat = idx.astype(np.intp) * self.c.shape[1] + self.ix
+        return self.c.reshape(-1).take(flat)
 
     def searchsorted(self, v, side="left", sorter=None):
         cmp = np.less_equal if side == "right" else np.less
-        count = np.zeros(self.s1 - self.s0, dtype=np.intp)
-        for row in self.c[:, self.s0:self.s1]:
-            count += cmp(row, v)
+        count = np.zeros(self.ix.size, dtype=np.intp)
+        for row in self.c:
+            count += cmp(row.take(self.ix), v)
         return count
 
     def members(self, s0, s1):
-        """The same table for members ``s0:s1`` of this one (a view)."""
-        return _Rows(self.c, self.s0 + s0, self.s0 + s1)
+        """The same table for members ``s0:s1`` of this one."""
+        return _Rows(self.c, self.ix[s0:s1])
 
     def take(self, keep):
-        return _Rows(np.take(self.c[:, self.s0:self.s1], keep, axis=1))
+        """The same table for members ``keep`` (indices) of this one, in that order."""
+        return _Rows(self.c, self.ix.take(keep))
 
 
 class _NumpyRuns:
