@@ -112,16 +112,14 @@ class HybridModel:
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
         ``unloading:restitution``, ``law:kelvin``, ...), each effect's ``feature``
         (``effect:brake``, ``effect:failure``, ...), and ``gap:open`` / ``gap:overlap`` for
-        initial gaps above / below zero (computed once: every backend's check reads it)."""
-        if "_features" not in self.__dict__:
-            out = set()
-            for law in self.laws:
-                out |= law.features()
-            out |= {part.feature for part in self.parts[self.K:]}
-            if np.any(np.asarray(self.params["gap"], float) > 0):
-                out.add("gap:open")
-            self._features = frozenset(out)
-        return self._features
+        initial gaps above / below zero."""
+        out = set()
+        for law in self.laws:
+            out |= law.features()
+        out |= {part.feature for part in self.parts[self.K:]}
+        if np.any(np.asarray(self.params["gap"], float) > 0):
+            out.add("gap:open")
+        return frozenset(out)
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):
@@ -223,19 +221,12 @@ class HybridModel:
         return xp.asarray([xp.broadcast_to(xp.asarray(v, dtype=float), xp.shape(D[0]))
                            for v in vals])
 
-    @cached_property
-    def event_linear(self) -> np.ndarray:
-        """(n_events,) bool: which events are linear in the state (each part's declaration)."""
-        return self._piece_layout()[0]
-
-    @cached_property
-    def piece_event(self) -> np.ndarray:
-        """(n_pieces,) int: the event each piece of :meth:`event_pieces` belongs to."""
-        return self._piece_layout()[1]
+    event_linear = property(lambda self: self._layout[0], doc="(n_events,) bool: linear in y?")
+    piece_event = property(lambda self: self._layout[1], doc="(n_pieces,) int: each one's event")
+    _layout = cached_property(lambda self: self._piece_layout())  # (built when first asked for)
 
     def _piece_layout(self):
-        """(``event_linear`` (n_events,) bool, ``piece_event`` (n_pieces,) int): which events are
-        linear in the state (each part's declaration), and the event each piece belongs to."""
+        """(:attr:`event_linear`, :attr:`piece_event`)."""
         _, disc = self.initial()
         counts = [len(pieces) for k, law in enumerate(self.laws)
                   for pieces in law.event_pieces(0.0, 0.0, disc[k])]
@@ -344,8 +335,6 @@ class HybridModel:
     def speed_scale(self, p=None, xp=np):
         """The speed scale [velocity]: the largest initial speed or speed difference."""
         v = (self.params if p is None else p)["v0"]
-        # (reductions as array methods, differences as slices: a few times cheaper than
-        # xp.max and xp.diff on one scene's small arrays, and the same numbers)
         fastest = xp.abs(v).max(axis=-1)
         closing = xp.abs(v[..., 1:] - v[..., :-1]).max(axis=-1)
         return xp.maximum(xp.maximum(fastest, closing), 1e-300)
@@ -419,12 +408,8 @@ class HybridModel:
                     extent = extent + xp.where(val < 1e299, val, 0.0).max(axis=-1)
         return 1e6 * self.time_scale(slowest=True, p=p, xp=xp) + 4.0 * extent / w_min + 1.0
 
-    @property
-    def crash_horizon(self) -> float:
-        """:meth:`horizon`, computed once [s]."""
-        if not hasattr(self, "_crash_horizon"):
-            self._crash_horizon = float(self.horizon())
-        return self._crash_horizon
+    #: :meth:`horizon`, computed once [s].
+    crash_horizon = cached_property(lambda self: float(self.horizon()))
 
     def natural_frequency(self, disc, p=None, xp=np):
         """A bound on the highest angular frequency [1/s] of the motion in the frozen discrete

@@ -236,6 +236,8 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
     (For the IF-D law of two vehicles the force is affine in a deformation that is monotone
     inside every segment of a first impact, so its peaks are at events, which the event rows
     hold exactly.)"""
+    if not segments:
+        return []
     K, N = model.K, model.N
     golden = 0.5 * (np.sqrt(5.0) - 1.0)
     pp = _columns(model.params)
