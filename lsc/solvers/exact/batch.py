@@ -94,10 +94,15 @@ class _NumpyRuns:
 
     @staticmethod
     def where(cond, a, b):
-        if isinstance(cond, np.ndarray) and cond.ndim == 1 and cond.size > 64:
-            if cond.all():
+        if isinstance(cond, np.ndarray) and cond.size > 64:
+            # (a condition of more axes, as the first-impact record's: only a branch of the
+            # result's full shape is handed back as it is)
+            shape = np.shape(a)
+            full = cond.ndim == 1 or (shape == np.shape(b)
+                                      and np.broadcast_shapes(cond.shape, shape) == shape)
+            if full and cond.all():
                 return a
-            if not cond.any():
+            if full and not cond.any():
                 return b
         return np.where(cond, a, b)
 
@@ -245,7 +250,7 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             D, W = w["x1"] - w["x2"] - w["gap"], w["v1"] - w["v2"]
             F = np.maximum(g.F0, _end_force(np, law, D, st))
             first = _metrics.fold_peaks(first, F[:, None], _accelerations(F, w),
-                                        _metrics.ongoing(first, np), np)
+                                        _metrics.ongoing(first, np), _NPR)
             # keep the members still running, grouped by (mode, event): the law's branch
             # selections (where) then see long runs of equal conditions, several times faster
             live = np.flatnonzero(~fin)
@@ -280,7 +285,7 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             opened = (new["mode"] == MODE_OPEN) & (st["mode"] != MODE_OPEN)
             closed = (new["mode"] != MODE_OPEN) & (st["mode"] == MODE_OPEN)
             first = _metrics.event_update(first, w["t"], _pair(w["v1"], w["v2"]),
-                                          closed[:, None], opened[:, None], np)
+                                          closed[:, None], opened[:, None], _NPR)
             w["ts"] = np.where(opened, w["t"], w["ts"])
             w["nev"] = w["nev"] + ~bad
             w["status"] = np.where(bad, NO_EVENT, new["status"]).astype(int)

@@ -36,6 +36,16 @@ class _ScalarTransitions:
         self.__dict__[name] = value   # (looked up once per solve)
         return value
 
+    def initial(self):
+        """The model's :meth:`~lsc.model.HybridModel.initial` state, on Python scalars, computed
+        once per model (a model solved again starts from the same state) and copied out."""
+        start = self._model.__dict__.get("_exact_initial")
+        if start is None:
+            y0, disc = self._model.initial()
+            start = (y0, self._model.to_python(disc))
+            self._model.__dict__["_exact_initial"] = start
+        return start[0].copy(), [dict(st) for st in start[1]]
+
     def is_over(self, y, disc, t=0.0, horizon=None):
         """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
         open (never over before: its first condition), so not on the NumPy arrays of every
