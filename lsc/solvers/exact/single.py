@@ -26,10 +26,14 @@ class _ScalarTransitions:
     def __init__(self, model):
         self.__dict__.update(model.__dict__)   # its attributes, read without __getattr__
         self._model = model
-        self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
-                    for law in model.laws]
-        for pp in self._pp:   # relative to the anchor, any rebound width is resolved
-            pp["wres"] = 0.0
+        # the laws' numbers on Python scalars and lists (read only), once per model
+        self._pp = model.__dict__.get("_exact_numbers")
+        if self._pp is None:
+            self._pp = [{k: (v.tolist() if np.ndim(v) else float(v))
+                         for k, v in law.params.items()} for law in model.laws]
+            for pp in self._pp:   # relative to the anchor, any rebound width is resolved
+                pp["wres"] = 0.0
+            model.__dict__["_exact_numbers"] = self._pp
 
     def __getattr__(self, name):
         value = getattr(self._model, name)
