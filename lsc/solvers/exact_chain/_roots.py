@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ._modes import Modes, Series
 
@@ -103,15 +102,39 @@ def _hunt(g, a, b, ga, gb, B, width):
 
 
 def _refine(g, a, b, ga, gb):
-    """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time. (The sign
-    change is that of the samples ``ga, gb``; where ``g`` evaluated on its own at the ends, in a
-    different order of rounding, shows none, the zero is at the end nearer to it, to rounding.)"""
+    """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time: Newton's
+    method on the analytic derivative (:meth:`~._modes.Series.with_slope`), kept inside the
+    bracket (a step that leaves it, or that does not halve it twice running, bisects). (The
+    sign change is that of the samples ``ga, gb``; where ``g`` evaluated on its own at the ends,
+    in a different order of rounding, shows none, the zero is at the end nearer to it, to
+    rounding.)"""
     if ga == 0 or gb == 0:
         return a if ga == 0 else b
     fa, fb = g(a), g(b)
     if fa * fb > 0 or fa == 0 or fb == 0:
         return a if abs(fa) <= abs(fb) else b
-    return float(brentq(g, a, b, xtol=1e-300, rtol=4 * _EPS, maxiter=500))
+    up = fb > 0
+    t = a - fa * (b - a) / (fb - fa)
+    width, stalled = b - a, 0
+    for _ in range(300):
+        f, df = g.with_slope(t)
+        if f == 0.0:
+            return t
+        if (f > 0) == up:
+            b = t
+        else:
+            a = t
+        if b - a <= 0.5 * width:
+            width, stalled = b - a, 0
+        else:
+            stalled += 1
+        new = t - f / df if df != 0.0 else math.nan
+        if not a < new < b or stalled >= 3:
+            new = 0.5 * (a + b)
+        if abs(new - t) <= 2 * _EPS * abs(t) or b - a <= 4 * _EPS * max(abs(a), abs(b)):
+            return new
+        t = new
+    return t
 
 
 def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:

@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from ..segments import Step, build_result, run_segments
-from ._modes import Motion, Series, deformation_map
+from ._modes import Motion, Series, Shape, deformation_map
 from ._roots import PER_RADIAN, earliest, extrema, first_crossing
 
 __all__ = ["solve"]
@@ -80,6 +80,7 @@ class _Chain:
         self.t_scale = model.time_scale()
         self.length = model.v_scale * self.t_scale
         self.spans = []   # (t0, t1, peak force (K,), peak acceleration (N,)) of each segment
+        self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
 
     def advance(self, t0, y0, disc, horizon) -> Step:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
@@ -91,7 +92,10 @@ class _Chain:
         slope = np.array([float(st["s"]) for st in contacts])
         force = np.array([float(st["fa"]) + float(st["s"]) * (D0[k] - float(st["da"]))
                           for k, st in enumerate(contacts)])
-        motion = Motion(self.m, x0, v0, slope, force, self.incidence)
+        key = tuple(slope.tolist())
+        if key not in self.shapes:
+            self.shapes[key] = Shape(self.m, slope, self.incidence)
+        motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if event is None:
