@@ -2,8 +2,8 @@
 contacts, against an independent modal event-driven solution (tests/hard/modal_chain.py, which
 shares no code with lsc) to 1e-10 and the tightest SciPy solve to 1e-8, with the same events;
 momentum to 1e-14 and the energy balance to 1e-12; an elastic chain with a gap passes the
-speed down the line exactly; ``auto`` does not pick it yet (``auto=False`` in its declaration:
-it has no batch path and no locked pairs, and is slower than SciPy where contacts chatter).
+speed down the line exactly; ``auto`` picks it for every chain it declares (SciPy for those
+with a feature it does not solve).
 """
 
 from __future__ import annotations
@@ -240,7 +240,7 @@ def _kelvin_chain():
                          {"law": "kelvin", "stiffness": 24000, "damping": 300}]}
 
 
-def test_auto_leaves_chains_to_scipy_until_exact_chain_is_an_auto_backend():
+def test_auto_picks_exact_chain_for_a_chain_it_declares():
     plain = {
         "units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 80.0, "speed": 0.0},
                                     {"mass": 120.0, "speed": 0.0}, {"mass": 90.0, "speed": 0.0}],
@@ -250,8 +250,8 @@ def test_auto_leaves_chains_to_scipy_until_exact_chain_is_an_auto_backend():
                      {"loading": {"stiffness": 40000}, "unloading": {"restitution": 0.1}}]}
     model = HybridModel(lsc.Scene.load(plain))
     assert lsc.solvers.backend("exact-chain").missing(model) == []   # it declares the chain
-    assert lsc.solvers.pick(model, "auto") == "scipy"                # but auto=False
-    assert lsc.solve(plain, method="exact-chain").method == "exact-chain"
+    assert lsc.solvers.pick(model, "auto") == "exact-chain"
+    assert lsc.solve(plain).method == "exact-chain"
 
 
 def test_a_feature_it_does_not_declare_is_refused_by_name_and_auto_sends_it_to_scipy():

@@ -20,7 +20,7 @@ import numpy as np
 
 from ._modes import Modes, Series
 
-__all__ = ["earliest", "first_crossing", "extrema", "PER_RADIAN", "TOUCH", "FLAT"]
+__all__ = ["earliest", "first_crossing", "extrema", "Stack", "PER_RADIAN", "TOUCH", "FLAT"]
 
 #: Samples per radian of the fastest mode (the curvature bound does the rest).
 PER_RADIAN = 4.0
@@ -32,43 +32,78 @@ _EPS = float(np.finfo(float).eps)
 
 def _grid(modes: Modes, lo: float, hi: float) -> np.ndarray:
     n = max(1, int(math.ceil((hi - lo) * PER_RADIAN * modes.fastest())))
-    return np.linspace(lo, hi, n + 1)
+    tt = lo + ((hi - lo) / n) * np.arange(n + 1.0)
+    tt[-1] = hi
+    return tt
 
 
-def _stack(funcs):
-    """``c`` (E,), ``alpha``, ``gamma`` (E, n) of a list of series on the same modes."""
-    return (np.array([g.c for g in funcs]), np.array([g.alpha for g in funcs]),
-            np.array([g.gamma for g in funcs]))
+class Stack:
+    """Series on the same modes stacked for sampling them together: ``c`` (E,), ``alpha``,
+    ``gamma`` (E, n); :meth:`series` gives each back (for the search between samples)."""
+
+    def __init__(self, modes: Modes, c, alpha, gamma, funcs=None):
+        self.modes, self.c, self.alpha, self.gamma = modes, c, alpha, gamma
+        self._funcs = list(funcs) if funcs is not None else [None] * len(c)
+
+    @classmethod
+    def of(cls, funcs: list[Series]) -> "Stack":
+        """The stack of ``funcs``."""
+        return cls(funcs[0].modes, np.array([g.c for g in funcs]),
+                   np.array([g.alpha for g in funcs]), np.array([g.gamma for g in funcs]),
+                   funcs)
+
+    def series(self, j: int) -> Series:
+        """Function ``j`` as a :class:`Series`."""
+        if self._funcs[j] is None:
+            self._funcs[j] = Series(float(self.c[j]), self.alpha[j], self.gamma[j], self.modes)
+        return self._funcs[j]
+
+    def take(self, rows) -> "Stack":
+        """The functions ``rows`` (indices) alone."""
+        return Stack(self.modes, self.c[rows], self.alpha[rows], self.gamma[rows],
+                     [self._funcs[j] for j in rows])
+
+    def derivative(self) -> "Stack":
+        """Every function's derivative (:meth:`Series.derivative`)."""
+        return Stack(self.modes, self.alpha.sum(axis=1), self.gamma,
+                     -self.modes.kappa * self.alpha)
+
+    def on(self, tt):
+        """The functions (E, len(tt)) at times ``tt`` (1-d) [s]."""
+        S, C = self.modes.basis(tt)
+        return self.c[:, None] + self.alpha @ S.T + self.gamma @ C.T
+
+    def curvature_bounds(self, T: float):
+        """Bounds on each ``|g''|`` (E,) over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
+        return self.modes.curvature_bounds(self.alpha, self.gamma, T)
 
 
-def earliest(funcs: list[Series], lo: float, hi: float) -> tuple[float | None, int | None]:
-    """The first downward zero crossing in ``(lo, hi]`` of any of ``funcs`` (each positive at
-    ``lo``): ``(τ, position in funcs)``, the first function on a tie; ``(None, None)`` if none."""
-    modes = funcs[0].modes
+def earliest(funcs, lo: float, hi: float) -> tuple[float | None, int | None]:
+    """The first downward zero crossing in ``(lo, hi]`` of any of ``funcs`` (a list of
+    :class:`Series`, or their :class:`Stack`; each positive at ``lo``): ``(τ, position in
+    funcs)``, the first function on a tie; ``(None, None)`` if none."""
+    stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
+    modes = stack.modes
     best, best_j = None, None
     if modes.fastest() == 0.0:
-        for j, g in enumerate(funcs):
-            tau = _quadratic_crossing(g, lo, hi)
+        for j in range(len(stack.c)):
+            tau = _quadratic_crossing(stack.series(j), lo, hi)
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
     tt = _grid(modes, lo, hi)
-    S, C = modes.basis(tt)
-    c, A, G = _stack(funcs)
-    vals = c[:, None] + A @ S.T + G @ C.T
-    margin = modes.curvature_bounds(A, G, hi) * (tt[1] - tt[0]) ** 2 / 8.0
-    for j, g in enumerate(funcs):
-        v = vals[j]
-        end = len(tt) - 1 if best is None else int(np.searchsorted(tt, best, side="right"))
-        end = min(end, len(tt) - 1)
-        if end < 1:
-            continue
-        below = np.flatnonzero(v[1:end + 1] <= 0)
-        last = below[0] if below.size else end - 1
-        unclear = np.flatnonzero(np.minimum(v[:last + 1], v[1:last + 2]) <= margin[j])
-        B = margin[j] * 8.0 / (tt[1] - tt[0]) ** 2
-        for i in unclear:
-            tau = _hunt(g, tt[i], tt[i + 1], v[i], v[i + 1], B, TOUCH * max(hi, 1e-300))
+    vals = stack.on(tt)
+    step = tt[1] - tt[0]
+    bounds = stack.curvature_bounds(hi)
+    unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
+    times = tt.tolist()
+    width = TOUCH * max(hi, 1e-300)
+    for j in np.flatnonzero(unclear.any(axis=1)).tolist():
+        v, B, g = vals[j].tolist(), float(bounds[j]), stack.series(j)
+        for i in np.flatnonzero(unclear[j]).tolist():
+            if best is not None and times[i] > best:
+                break
+            tau = _hunt(g, times[i], times[i + 1], v[i], v[i + 1], B, width)
             if tau is not None:
                 if best is None or tau < best:
                     best, best_j = tau, j
@@ -154,35 +189,40 @@ def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:
     return down[0] if down else None
 
 
-def extrema(funcs: list[Series], T: float) -> list[list[float]]:
-    """For each of ``funcs``, the times in ``[0, T]`` that hold its extreme values on it
-    besides the ends: where its derivative changes sign (refined to a few ulps), and the ends
-    of the intervals where ``g`` provably varies by less than :data:`FLAT` of its size (a
-    derivative grazing zero there need not be resolved: any point of the interval gives the
-    value to rounding)."""
-    modes = funcs[0].modes
-    out = [[] for _ in funcs]
+def extrema(funcs, T: float) -> list[list[float]]:
+    """For each of ``funcs`` (a list of :class:`Series`, or their :class:`Stack`), the times
+    in ``[0, T]`` that hold its extreme values on it besides the ends: where its derivative
+    changes sign (refined to a few ulps), and the ends of the intervals where ``g`` provably
+    varies by less than :data:`FLAT` of its size (a derivative grazing zero there need not be
+    resolved: any point of the interval gives the value to rounding)."""
+    stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
+    modes = stack.modes
+    out = [[] for _ in stack.c]
     if T <= 0:
         return out
-    ders = [g.derivative() for g in funcs]
+    ders = stack.derivative()
+    moving = np.flatnonzero(np.any(ders.alpha != 0, axis=1) | np.any(ders.gamma != 0, axis=1))
+    if not moving.size:
+        return out   # constants: no interior extremum
     tt = _grid(modes, 0.0, T) if modes.fastest() > 0 else np.linspace(0.0, T, 3)
     S, C = modes.basis(tt)
-    c, A, G = _stack(funcs)
-    size = np.max(np.abs(c[:, None] + A @ S.T + G @ C.T), axis=1)
-    c, A, G = _stack(ders)
-    vals = c[:, None] + A @ S.T + G @ C.T
-    bounds = modes.curvature_bounds(A, G, T)
-    margin = bounds * (tt[1] - tt[0]) ** 2 / 8.0
-    for j, d in enumerate(ders):
-        if not (np.any(d.alpha) or np.any(d.gamma)):
-            continue   # constant: no interior extremum
-        v = vals[j]
-        start = _taylor_clear(d, T, float(np.sum(np.abs(funcs[j].alpha))))
-        unclear = (v[:-1] * v[1:] <= 0) | (np.minimum(np.abs(v[:-1]), np.abs(v[1:])) <= margin[j])
-        for i in np.flatnonzero(unclear & (tt[1:] > start)):
-            a = max(tt[i], start)
-            out[j] += _sign_changes(d, a, tt[i + 1], v[i] if a == tt[i] else d(a), v[i + 1],
-                                    bounds[j], FLAT * size[j])
+    size = np.max(np.abs(stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T), axis=1)
+    vals = ders.c[:, None] + ders.alpha @ S.T + ders.gamma @ C.T
+    bounds = ders.curvature_bounds(T)
+    margin = (bounds * (tt[1] - tt[0]) ** 2 / 8.0)[:, None]
+    unclear = ((vals[:, :-1] * vals[:, 1:] <= 0)
+               | (np.minimum(np.abs(vals[:, :-1]), np.abs(vals[:, 1:])) <= margin))
+    times = tt.tolist()
+    for j in moving[unclear[moving].any(axis=1)].tolist():
+        d = ders.series(j)
+        start = _taylor_clear(d, T, float(np.sum(np.abs(stack.alpha[j]))))
+        v = vals[j].tolist()
+        for i in np.flatnonzero(unclear[j]).tolist():
+            if times[i + 1] <= start:
+                continue
+            a = max(times[i], start)
+            out[j] += _sign_changes(d, a, times[i + 1], v[i] if a == times[i] else d(a),
+                                    v[i + 1], float(bounds[j]), FLAT * float(size[j]))
     return out
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..segments import Step, build_result, run_segments
 from ._modes import Motion, Series, Shape, deformation_map
-from ._roots import PER_RADIAN, earliest, extrema, first_crossing
+from ._roots import PER_RADIAN, Stack, earliest, extrema, first_crossing
 
 __all__ = ["solve"]
 
@@ -111,20 +111,25 @@ class _Chain:
     def _peaks(self, motion, slope, force, tau):
         """The largest force of each contact (K,) and the acceleration of largest magnitude of
         each vehicle (N,), signed, over ``[0, τ]``: at the ends or at an interior extremum
-        (:func:`~._roots.extrema`), each a series in closed form."""
+        (:func:`~._roots.extrema`), each a series in closed form. The extrema are searched on
+        the forces of the contacts with a slope and the accelerations of the vehicles between
+        two of them (a vehicle pushed by one such contact has that force's extrema); every
+        quantity is then evaluated at all the times found, once."""
         rows = slope[:, None] * motion.P
         fa, fg = rows * motion.a, rows * motion.b
         inc, m = self.incidence, self.m[:, None]
-        c = np.concatenate([force, (inc @ force) / self.m])
-        alpha = np.concatenate([fa, (inc @ fa) / m])
-        gamma = np.concatenate([fg, (inc @ fg) / m])
-        series = [Series(float(c[j]), alpha[j], gamma[j], motion.modes) for j in range(c.size)]
-        inner = extrema(series, tau)
-        peaks = []
-        for g, times in zip(series, inner):
-            vals = g(np.array([0.0, tau, *times]))
-            peaks.append(vals[np.argmax(np.abs(vals))] if len(peaks) >= self.K else np.max(vals))
-        return np.array(peaks[: self.K]), np.array(peaks[self.K:])
+        stack = Stack(motion.modes, np.concatenate([force, (inc @ force) / self.m]),
+                      np.concatenate([fa, (inc @ fa) / m]), np.concatenate([fg, (inc @ fg) / m]))
+        active = slope != 0
+        searched = np.concatenate([active, np.abs(inc) @ active > 1])
+        times = [0.0, tau]
+        if searched.any():
+            for found in extrema(stack.take(np.flatnonzero(searched)), tau):
+                times += found
+        vals = stack.on(np.array(times))
+        forces = vals[: self.K].max(axis=1)
+        acc = vals[self.K:]
+        return forces, acc[np.arange(self.N), np.argmax(np.abs(acc), axis=1)]
 
     # ------------------------------------------------------------------ events
     def _event_functions(self, motion, disc, D0, W0, x0, v0):
@@ -169,14 +174,16 @@ class _Chain:
         lo = 0.0
         window = min(first, 2 * math.pi / modes.fastest()) if modes.fastest() else first
         budget = MAX_SAMPLES / (PER_RADIAN * omega)
+        stack = Stack.of([g for _, g, _ in pending]) if pending else None
         while pending and lo < limit and (best is None or lo < best):
             hi = min(lo + window, limit, best if best is not None else math.inf)
             window = min(2 * window, first)
-            live = [(i, g) for i, g, s in pending if s <= lo or (lo > 0 and s < hi)]
+            live = [j for j, (_, _, s) in enumerate(pending) if s <= lo or (lo > 0 and s < hi)]
             if live:
-                tau, j = earliest([g for _, g in live], lo, hi)
+                tau, j = earliest(stack if len(live) == len(pending) else stack.take(live),
+                                  lo, hi)
                 if tau is not None and (best is None or tau < best):
-                    best, best_i = tau, live[j][0]
+                    best, best_i = tau, pending[live[j]][0]
             lo = hi
             if lo >= budget and best is None:
                 return lo, None
