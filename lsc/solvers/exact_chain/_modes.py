@@ -59,6 +59,14 @@ class Modes:
         self._kinds = [(1 if k > 0 else -1 if k < 0 else 0, v) for k, v in zip(self._kappa, w)]
         self._fastest = max(w, default=0.0)
         self._slowest = min((v for v in w if v > 0), default=0.0)
+        # the harmonic modes (a slice where they follow each other, as they do after the rigid
+        # ones) and their ω, for the basis on a grid
+        if self.pos.size:
+            lo, hi = int(self.pos[0]), int(self.pos[-1]) + 1
+            idx = slice(lo, hi) if hi - lo == self.pos.size else self.pos
+            self._harmonic = (idx, self.w[self.pos])
+        else:
+            self._harmonic = None
         # |S| <= 1/ω on a harmonic mode whatever the window (min with T in bound_weights)
         self._inv_w = np.array([1.0 / v if k > 0 else math.inf for k, v in zip(self._kappa, w)])
 
@@ -85,16 +93,24 @@ class Modes:
         near τ = 0): ``S = 2 sin h cos h / ω``, ``C = 2 (sin h / ω)²``, ``h = ωτ/2`` (and
         ``sinh, cosh``); ``S = τ, C = τ²/2`` for the rigid modes."""
         tau = np.asarray(tau, float).reshape(-1, 1)
+        if tau.shape[0] <= 4:   # (a few times: in plain floats, as basis_at)
+            S, C = zip(*(self.basis_at(t) for t in tau[:, 0].tolist()))
+            return np.array(S), np.array(C)
         S = np.empty((tau.shape[0], self.kappa.size))
         C = np.empty_like(S)
-        for idx, sin, cos in ((self.pos, np.sin, np.cos), (self.neg, np.sinh, np.cosh)):
-            if idx.size:
-                w = self.w[idx]
-                h = (0.5 * w) * tau
-                with np.errstate(over="ignore", invalid="ignore"):
-                    sw = sin(h) / w
-                    S[:, idx] = 2.0 * sw * cos(h)
-                    C[:, idx] = 2.0 * sw * sw
+        if self._harmonic is not None:
+            idx, w = self._harmonic
+            h = (0.5 * w) * tau
+            sw = np.sin(h) / w
+            S[:, idx] = 2.0 * sw * np.cos(h)
+            C[:, idx] = 2.0 * sw * sw
+        if self.neg.size:
+            w = self.w[self.neg]
+            h = (0.5 * w) * tau
+            with np.errstate(over="ignore", invalid="ignore"):
+                sw = np.sinh(h) / w
+                S[:, self.neg] = 2.0 * sw * np.cosh(h)
+                C[:, self.neg] = 2.0 * sw * sw
         if self.rigid.size:
             S[:, self.rigid] = tau
             C[:, self.rigid] = 0.5 * tau * tau
@@ -213,6 +229,16 @@ class Shape:
         self.P = C @ self.T
         self.from_velocity = Q.T * root[None, :]
         self.from_force = (Q.T / root[None, :]) @ incidence
+        # the contact forces and accelerations (K + N): from the forces at the start, and
+        # their modal rows; those whose extrema are searched (the forces of the contacts with
+        # a slope, the accelerations of vehicles between two of them: the others follow one
+        # force, or none)
+        m = np.asarray(m, float)[:, None]
+        force_rows = slope[:, None] * self.P
+        self.peak_of_force = np.concatenate([np.eye(slope.size), incidence / m])
+        self.peak_rows = np.concatenate([force_rows, (incidence @ force_rows) / m])
+        active = slope != 0
+        self.searched = np.flatnonzero(np.concatenate([active, np.abs(incidence) @ active > 1]))
 
 
 class Motion:
@@ -228,6 +254,7 @@ class Motion:
     def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None):
         self.m, self.x0, self.v0 = m, x0, v0
         shape = Shape(m, slope, incidence) if shape is None else shape
+        self.shape = shape
         self.modes = shape.modes
         self.kappa = self.modes.kappa
         self.T, self.P = shape.T, shape.P

@@ -78,16 +78,21 @@ class Stack:
         return self.modes.curvature_bounds(self.alpha, self.gamma, T)
 
 
-def earliest(funcs, lo: float, hi: float) -> tuple[float | None, int | None]:
+def earliest(funcs, lo: float, hi: float,
+             starts=None) -> tuple[float | None, int | None]:
     """The first downward zero crossing in ``(lo, hi]`` of any of ``funcs`` (a list of
     :class:`Series`, or their :class:`Stack`; each positive at ``lo``): ``(τ, position in
-    funcs)``, the first function on a tie; ``(None, None)`` if none."""
+    funcs)``, the first function on a tie; ``(None, None)`` if none. ``starts``: where each
+    function's search starts instead of ``lo`` (as :func:`first_crossing`: at the start itself
+    where the function is not positive there)."""
     stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
     modes = stack.modes
+    starts = [lo] * len(stack.c) if starts is None else list(starts)
     best, best_j = None, None
     if modes.fastest() == 0.0:
-        for j in range(len(stack.c)):
-            tau = _quadratic_crossing(stack.series(j), lo, hi)
+        for j, start in enumerate(starts):
+            g = stack.series(j)
+            tau = start if start > lo and not g(start) > 0 else _quadratic_crossing(g, start, hi)
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
@@ -96,16 +101,25 @@ def earliest(funcs, lo: float, hi: float) -> tuple[float | None, int | None]:
     step = tt[1] - tt[0]
     bounds = stack.curvature_bounds(hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
+    if max(starts) > lo:   # (the intervals before a function's start are not its own)
+        first = np.searchsorted(tt, starts, side="right") - 1
+        unclear &= np.arange(unclear.shape[1])[None, :] >= first[:, None]
     times = tt.tolist()
     width = TOUCH * max(hi, 1e-300)
-    for j in np.flatnonzero(unclear.any(axis=1)).tolist():
+    rows = np.flatnonzero(unclear.any(axis=1))
+    # the functions in the order of their first unclear interval: one whose interval starts
+    # after the earliest crossing found is not searched
+    for j in rows[np.argsort(unclear[rows].argmax(axis=1), kind="stable")].tolist():
         v, B, g = vals[j].tolist(), float(bounds[j]), stack.series(j)
         for i in np.flatnonzero(unclear[j]).tolist():
             if best is not None and times[i] > best:
                 break
-            tau = _hunt(g, times[i], times[i + 1], v[i], v[i + 1], B, width)
+            a, ga = times[i], v[i]
+            if a < starts[j]:
+                a, ga = starts[j], g(starts[j])
+            tau = a if not ga > 0 else _hunt(g, a, times[i + 1], ga, v[i + 1], B, width)
             if tau is not None:
-                if best is None or tau < best:
+                if best is None or tau < best or tau == best and j < best_j:
                     best, best_j = tau, j
                 break
     return best, best_j
@@ -139,17 +153,14 @@ def _hunt(g, a, b, ga, gb, B, width):
 def _refine(g, a, b, ga, gb):
     """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time: Newton's
     method on the analytic derivative (:meth:`~._modes.Series.with_slope`), kept inside the
-    bracket (a step that leaves it, or that does not halve it twice running, bisects). (The
-    sign change is that of the samples ``ga, gb``; where ``g`` evaluated on its own at the ends,
-    in a different order of rounding, shows none, the zero is at the end nearer to it, to
-    rounding.)"""
+    bracket (a step that leaves it, or that does not halve it three times running, bisects).
+    (The sign change is that of the samples ``ga, gb``; where ``g`` evaluated on its own, in a
+    different order of rounding, shows none near an end, the bracket closes on that end: the
+    zero is there to rounding.)"""
     if ga == 0 or gb == 0:
         return a if ga == 0 else b
-    fa, fb = g(a), g(b)
-    if fa * fb > 0 or fa == 0 or fb == 0:
-        return a if abs(fa) <= abs(fb) else b
-    up = fb > 0
-    t = a - fa * (b - a) / (fb - fa)
+    up = gb > 0
+    t = a - ga * (b - a) / (gb - ga)
     width, stalled = b - a, 0
     for _ in range(300):
         f, df = g.with_slope(t)
