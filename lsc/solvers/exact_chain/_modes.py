@@ -50,13 +50,13 @@ class Modes:
     def __init__(self, kappa):
         self.kappa = np.asarray(kappa, float)
         self.w = np.sqrt(np.abs(self.kappa))
-        self.pos = np.flatnonzero(self.kappa > 0)
-        self.neg = np.flatnonzero(self.kappa < 0)
-        self.rigid = np.flatnonzero(self.kappa == 0)
         # (for one time at a time, in plain floats: ten times cheaper than NumPy on a few modes)
         self._kappa = self.kappa.tolist()
         w = self.w.tolist()
         self._kinds = [(1 if k > 0 else -1 if k < 0 else 0, v) for k, v in zip(self._kappa, w)]
+        self.pos, self.neg, self.rigid = (
+            np.array([j for j, (kind, _) in enumerate(self._kinds) if kind == which], dtype=int)
+            for which in (1, -1, 0))
         self._fastest = max(w, default=0.0)
         self._slowest = min((v for v in w if v > 0), default=0.0)
         # the harmonic modes (a slice where they follow each other, as they do after the rigid
@@ -189,16 +189,15 @@ class Series:
     def derivatives_at_zero(self, n: int) -> list[float]:
         """``g(0), g'(0), ..., g^(n)(0)``: ``S^(2m+1)(0) = (-κ)^m``, ``C^(2m+2)(0) = (-κ)^m``
         and the others vanish, so ``g^(2m+1)(0) = Σ α (-κ)^m``, ``g^(2m+2)(0) = Σ γ (-κ)^m``."""
-        out = [self.c]
-        alpha, gamma = self.alpha.tolist(), self.gamma.tolist()
-        power = [1.0] * len(alpha)
-        minus_kappa = [-k for k in self.modes._kappa]
-        for p in range(1, n + 1):
-            coef = alpha if p % 2 else gamma
-            out.append(math.fsum(c * q for c, q in zip(coef, power)))
-            if p % 2 == 0:
-                power = [q * k for q, k in zip(power, minus_kappa)]
-        return out
+        return _at_zero(self.c, self.alpha.tolist(), self.gamma.tolist(),
+                        [-k for k in self.modes._kappa], n)
+
+    def sizes_at_zero(self, n: int, size: float) -> list[float]:
+        """The sizes of the terms summed into ``g(0), ..., g^(n)(0)`` (:meth:`derivatives_at_zero`
+        on ``|α|, |γ|, |κ|``; ``size``: that of ``g(0)``): their rounding is a few ulps of
+        these."""
+        return _at_zero(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
+                        [abs(k) for k in self.modes._kappa], n)
 
     def curvature_bound(self, T: float) -> float:
         """A bound on ``|g''|`` over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
@@ -228,17 +227,30 @@ class Shape:
         self.T = Q / root[:, None]
         self.P = C @ self.T
         self.from_velocity = Q.T * root[None, :]
-        self.from_force = (Q.T / root[None, :]) @ incidence
+        self.from_force = self.T.T @ incidence
         # the contact forces and accelerations (K + N): from the forces at the start, and
         # their modal rows; those whose extrema are searched (the forces of the contacts with
         # a slope, the accelerations of vehicles between two of them: the others follow one
         # force, or none)
-        m = np.asarray(m, float)[:, None]
+        inv_m = 1.0 / np.asarray(m, float)[:, None]
         force_rows = slope[:, None] * self.P
-        self.peak_of_force = np.concatenate([np.eye(slope.size), incidence / m])
-        self.peak_rows = np.concatenate([force_rows, (incidence @ force_rows) / m])
-        active = slope != 0
-        self.searched = np.flatnonzero(np.concatenate([active, np.abs(incidence) @ active > 1]))
+        self.peak_of_force = np.concatenate([np.eye(slope.size), incidence * inv_m])
+        self.peak_rows = np.concatenate([force_rows, (incidence @ force_rows) * inv_m])
+        active = [s != 0 for s in slope.tolist()]
+        pushed = [sum(a for a, x in zip(active, row) if x != 0) for row in incidence.tolist()]
+        self.searched = np.array([k for k, a in enumerate(active) if a]
+                                 + [len(active) + i for i, n in enumerate(pushed) if n > 1],
+                                 dtype=int)
+
+
+def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
+    """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...`` (``n + 1`` terms)."""
+    out, power = [c], [1.0] * len(alpha)
+    for p in range(1, n + 1):
+        out.append(math.fsum(x * q for x, q in zip(alpha if p % 2 else gamma, power)))
+        if p % 2 == 0:
+            power = [q * f for q, f in zip(power, factor)]
+    return out
 
 
 class Motion:
@@ -293,9 +305,13 @@ def _modes(C, slope, root):
     for s in slope.tolist():
         group.append(group[-1] if s != 0 else group[-1] + 1)
     n_rigid = group[-1] + 1
-    R = np.zeros((N, n_rigid))
-    R[np.arange(N), group] = root
-    R /= np.linalg.norm(R, axis=0)
+    roots = root.tolist()
+    mass = [0.0] * n_rigid   # (root² = m: each group's mass)
+    for g, r in zip(group, roots):
+        mass[g] += r * r
+    norm = [math.sqrt(x) for x in mass]
+    R = np.array([[r / norm[g] if g == j else 0.0 for j in range(n_rigid)]
+                  for g, r in zip(group, roots)])
     if n_rigid == N:
         return np.zeros(N), R
     scaled = C / root[None, :]

@@ -238,8 +238,9 @@ def extrema(funcs, T: float) -> list[list[float]]:
 
 
 def _taylor_clear(d: Series, T: float, rounding: float) -> float:
-    """(``rounding``: the size of the terms whose sum is ``d(0)``.) A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
-    rounding does not hide (0 where ``d(0)`` itself is clear of rounding, or none is): there
+    """A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
+    rounding does not hide (0 where ``d(0)`` itself is clear of rounding, or none is;
+    ``rounding``: the size of the terms whose sum is ``d(0)``): there
     ``d ≈ d_p τ^p/p!`` and ``|d^(p+1)| <= B``, so ``d`` keeps its sign while
     ``|d_p| τ^p/p! > B τ^(p+1)/(p+1)!`` (the lower orders, rounding, are neglected). A function
     pushed into motion far down a chain is flat at the start (``τ^9``), where sampling cannot
@@ -247,14 +248,8 @@ def _taylor_clear(d: Series, T: float, rounding: float) -> float:
     n = 2 * d.alpha.size + 1
     if abs(d.c) > 64 * _EPS * rounding:
         return 0.0   # (clear of rounding at 0: the common case, decided without the series)
-    noise = Series(rounding, np.abs(d.alpha), np.abs(d.gamma), d.modes)
     vals = d.derivatives_at_zero(n)
-    scale = []
-    for _ in range(n + 1):
-        scale.append(noise.c)
-        noise = Series(float(np.sum(noise.alpha)), noise.gamma,
-                       np.abs(d.modes.kappa) * noise.alpha, d.modes)
-    tol = [64 * _EPS * x for x in scale]
+    tol = [64 * _EPS * x for x in d.sizes_at_zero(n, rounding)]
     if abs(vals[0]) > tol[0]:
         return 0.0
     p = next((k for k in range(1, n + 1) if abs(vals[k]) > tol[k]), None)
