@@ -6,8 +6,8 @@ hyperbolic terms) with known frequencies plus a quadratic. Its second derivative
 samples ``Δ`` apart ``g`` differs from its chord by at most ``B Δ²/8``: where both samples exceed
 that, ``g`` has no zero between them. The functions of a segment are sampled together at
 :data:`PER_RADIAN` samples per radian of its fastest mode; an interval the bound cannot clear is
-bisected until it can, a sample changes sign (a bracket, refined by Brent's method to a few ulps
-of the time), or it is narrower than :data:`TOUCH` of the window: a tangency, where the function
+bisected until it can, a sample changes sign (a bracket, refined to a few ulps of the time by
+Newton's method on the analytic derivative, kept inside it), or it is narrower than :data:`TOUCH` of the window: a tangency, where the function
 dips below zero by at most ``B (TOUCH T)²/8``, far below rounding, so the contact only touches.
 A function of the rigid modes alone is a quadratic, solved in closed form.
 """
