@@ -67,7 +67,7 @@ class Modes:
             self._harmonic = (idx, self.w[self.pos])
         else:
             self._harmonic = None
-        # |S| <= 1/ω on a harmonic mode whatever the window (min with T in bound_weights)
+        # |S| <= 1/ω on a harmonic mode whatever the window (min with T in curvature_bounds)
         self._inv_w = np.array([1.0 / v if k > 0 else math.inf for k, v in zip(self._kappa, w)])
 
     def basis_at(self, tau: float) -> tuple[list, list]:
@@ -120,20 +120,15 @@ class Modes:
         """Bounds on ``|g''|`` over ``[0, T]`` for series of coefficients ``alpha, gamma``
         (..., n): ``g'' = Σ -κ α S + γ S'``, with ``|S| <= min(T, 1/ω)``, ``|S'| <= 1``
         (harmonic and rigid modes) and ``S <= sinh(λT)/λ``, ``S' <= cosh(λT)`` (hyperbolic)."""
-        return self.bound_weights(T) @ np.concatenate([np.abs(alpha * self.kappa),
-                                                       np.abs(gamma)], axis=-1).T
-
-    def bound_weights(self, T: float) -> np.ndarray:
-        """``(max |S|, max |S'|)`` (2n,) over ``[0, T]`` per mode (:meth:`curvature_bounds`: the
-        bound is ``|κ α|, |γ|`` (2n,) times these)."""
         s_max = np.minimum(T, self._inv_w)
+        if not self.neg.size:
+            return np.abs(alpha * self.kappa) @ s_max + np.abs(gamma).sum(axis=-1)
         ds_max = np.ones_like(s_max)
-        if self.neg.size:
-            w = self.w[self.neg]
-            with np.errstate(over="ignore"):
-                s_max[self.neg] = np.sinh(w * T) / w
-                ds_max[self.neg] = np.cosh(w * T)
-        return np.concatenate([s_max, ds_max])
+        w = self.w[self.neg]
+        with np.errstate(over="ignore"):
+            s_max[self.neg] = np.sinh(w * T) / w
+            ds_max[self.neg] = np.cosh(w * T)
+        return np.abs(alpha * self.kappa) @ s_max + np.abs(gamma) @ ds_max
 
     def fastest(self) -> float:
         """The largest ``sqrt|κ|`` [1/s] (0: all rigid)."""

@@ -212,9 +212,6 @@ def extrema(funcs, T: float) -> list[list[float]]:
     if T <= 0:
         return out
     ders = stack.derivative()
-    moving = np.flatnonzero(np.any(ders.alpha != 0, axis=1) | np.any(ders.gamma != 0, axis=1))
-    if not moving.size:
-        return out   # constants: no interior extremum
     tt = _grid(modes, 0.0, T) if modes.fastest() > 0 else np.linspace(0.0, T, 3)
     S, C = modes.basis(tt)
     size = np.max(np.abs(stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T), axis=1)
@@ -224,8 +221,10 @@ def extrema(funcs, T: float) -> list[list[float]]:
     unclear = ((vals[:, :-1] * vals[:, 1:] <= 0)
                | (np.minimum(np.abs(vals[:, :-1]), np.abs(vals[:, 1:])) <= margin))
     times = tt.tolist()
-    for j in moving[unclear[moving].any(axis=1)].tolist():
+    for j in np.flatnonzero(unclear.any(axis=1)).tolist():
         d = ders.series(j)
+        if not (d.alpha.any() or d.gamma.any()):
+            continue   # a constant: no interior extremum
         start = _taylor_clear(d, T, float(np.sum(np.abs(stack.alpha[j]))))
         v = vals[j].tolist()
         for i in np.flatnonzero(unclear[j]).tolist():
