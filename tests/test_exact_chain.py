@@ -232,6 +232,30 @@ def test_contacts_pushed_shut_down_a_touching_line_close_at_once():
     _check_conservation(r)
 
 
+def test_the_rows_at_the_events_are_the_models_forces_at_the_segment_ends():
+    """The rows handed to the Result (forces, accelerations, deformations at both ends of every
+    segment, each in its own discrete state) are those the model gives on the segments' dense
+    output (lsc.solvers.segments.event_rows), on a chain with a table, a gap and re-closings."""
+    from lsc.solvers.exact_chain._solve import _Chain, _transitions
+    from lsc.solvers.segments import event_rows, run_segments
+
+    scene = {
+        "units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 80.0, "speed": 0.0},
+                                    {"mass": 120.0, "speed": 0.0}, {"mass": 90.0, "speed": 0.0}],
+        "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
+                     {"loading": {"table": [[0, 0], [0.1, 3000], [1, 60000]]},
+                      "unloading": {"stiffness": 90000}, "gap": 0.3},
+                     {"loading": {"stiffness": 40000}, "unloading": {"restitution": 0.1}}]}
+    model = HybridModel(lsc.Scene.load(scene))
+    chain = _Chain(model)
+    segments, _, y, _, _ = run_segments(_transitions(model), chain.advance)
+    rows, ref = chain.rows(segments), event_rows(model, segments, y)
+    assert len(segments) > 10 and set(rows) == set(ref)
+    for name in ref:
+        scale = max(float(np.max(np.abs(ref[name]))), 1e-300)
+        assert np.max(np.abs(rows[name] - ref[name])) <= 1e-12 * scale, name
+
+
 def _kelvin_chain():
     return {"units": "US",
             "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 100.0, "speed": 0.0},

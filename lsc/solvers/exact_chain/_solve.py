@@ -92,8 +92,7 @@ class _Chain:
         N = self.N
         Y = np.array([y for pair in self.ends for y in pair]).T      # (2N, 2S)
         # each contact's discrete state on both ends of every segment, as arrays
-        disc = [{name: np.repeat([s.disc[k][name] for s in segments], 2) for name in
-                 segments[0].disc[k]} for k in range(self.K)]
+        disc = [_Ends(segments, k) for k in range(self.K)]
         p = dict(self.model.params, gap=self.gap[:, None])
         F, _, acc = self.model.accelerations(Y, disc, p)
         D, _ = self.model.deformation(Y, p)
@@ -196,6 +195,19 @@ class _Chain:
             if lo >= budget and best is None:
                 return lo, None
         return (best, best_i) if best_i is not None else (None, None)
+
+
+class _Ends(dict):
+    """Contact ``k``'s discrete state on both ends of every segment: each entry an array (2S,),
+    gathered when the law first reads it."""
+
+    def __init__(self, segments, k: int):
+        super().__init__()
+        self.segments, self.k = segments, k
+
+    def __missing__(self, name):
+        value = self[name] = np.repeat([s.disc[self.k][name] for s in self.segments], 2)
+        return value
 
 
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
