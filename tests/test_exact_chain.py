@@ -232,6 +232,16 @@ def test_contacts_pushed_shut_down_a_touching_line_close_at_once():
     _check_conservation(r)
 
 
+#: Four cars: a table, a gap, an unloading stiffness, contacts that re-close.
+FOUR_CARS = {
+    "units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 80.0, "speed": 0.0},
+                                {"mass": 120.0, "speed": 0.0}, {"mass": 90.0, "speed": 0.0}],
+    "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
+                 {"loading": {"table": [[0, 0], [0.1, 3000], [1, 60000]]},
+                  "unloading": {"stiffness": 90000}, "gap": 0.3},
+                 {"loading": {"stiffness": 40000}, "unloading": {"restitution": 0.1}}]}
+
+
 def test_the_rows_at_the_events_are_the_models_forces_at_the_segment_ends():
     """The rows handed to the Result (forces, accelerations, deformations at both ends of every
     segment, each in its own discrete state) are those the model gives on the segments' dense
@@ -239,14 +249,7 @@ def test_the_rows_at_the_events_are_the_models_forces_at_the_segment_ends():
     from lsc.solvers.exact_chain._solve import _Chain, _transitions
     from lsc.solvers.segments import event_rows, run_segments
 
-    scene = {
-        "units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 80.0, "speed": 0.0},
-                                    {"mass": 120.0, "speed": 0.0}, {"mass": 90.0, "speed": 0.0}],
-        "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
-                     {"loading": {"table": [[0, 0], [0.1, 3000], [1, 60000]]},
-                      "unloading": {"stiffness": 90000}, "gap": 0.3},
-                     {"loading": {"stiffness": 40000}, "unloading": {"restitution": 0.1}}]}
-    model = HybridModel(lsc.Scene.load(scene))
+    model = HybridModel(lsc.Scene.load(FOUR_CARS))
     chain = _Chain(model)
     segments, _, y, _, _ = run_segments(_transitions(model), chain.advance)
     rows, ref = chain.rows(segments), event_rows(model, segments, y)
@@ -265,17 +268,10 @@ def _kelvin_chain():
 
 
 def test_auto_picks_exact_chain_for_a_chain_it_declares():
-    plain = {
-        "units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 80.0, "speed": 0.0},
-                                    {"mass": 120.0, "speed": 0.0}, {"mass": 90.0, "speed": 0.0}],
-        "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
-                     {"loading": {"table": [[0, 0], [0.1, 3000], [1, 60000]]},
-                      "unloading": {"stiffness": 90000}, "gap": 0.3},
-                     {"loading": {"stiffness": 40000}, "unloading": {"restitution": 0.1}}]}
-    model = HybridModel(lsc.Scene.load(plain))
+    model = HybridModel(lsc.Scene.load(FOUR_CARS))
     assert lsc.solvers.backend("exact-chain").missing(model) == []   # it declares the chain
     assert lsc.solvers.pick(model, "auto") == "exact-chain"
-    assert lsc.solve(plain).method == "exact-chain"
+    assert lsc.solve(FOUR_CARS).method == "exact-chain"
 
 
 def test_a_feature_it_does_not_declare_is_refused_by_name_and_auto_sends_it_to_scipy():
