@@ -259,6 +259,37 @@ def test_the_rows_at_the_events_are_the_models_forces_at_the_segment_ends():
         assert np.max(np.abs(rows[name] - ref[name])) <= 1e-12 * scale, name
 
 
+#: A near-plastic chain (e = 2e-12 and 7e-8: unloading lines up to 1e23 times stiffer than the
+#: loading) whose front contact, held shut, rings at ~2e10 rad/s (found by scripts/bench_chain.py
+#: --chatter).
+RINGING = {
+    "units": "US",
+    "vehicles": [{"mass": 2.5242077263871856, "speed": 63.644118892006915},
+                 {"mass": 16.193434141203458, "speed": 30.854474786475304},
+                 {"mass": 4.077234797032816, "speed": -1.9351693190563104}],
+    "contacts": [
+        {"loading": {"stiffness": 91893.57400366181},
+         "unloading": {"restitution": 1.971760335322906e-12}, "gap": 0.002706941299741837},
+        {"loading": {"table": [[0.0, 0.0], [0.007761327550525353, 4538.780756177735],
+                               [0.015522655101050706, 4538.780756177735],
+                               [1000.0, 5847948368.790239]]},
+         "unloading": {"restitution": 7.111485298829223e-08}, "gap": 0.002706941299741837}]}
+
+
+def test_a_contact_ringing_past_the_sample_budget_is_a_clear_error(monkeypatch):
+    """A segment whose event search runs out of samples (a near-plastic contact held shut,
+    ringing on its unloading line) stops the solve there with a SimulationError that says so,
+    at once: not after locating the peaks of millions of oscillations (minutes), nor blaming
+    the unloading branch ("the contact never separates"). (The budget is made small here to
+    keep the test short; the search stops at the same point with the real one.)"""
+    from lsc.solvers.exact_chain import _solve
+
+    monkeypatch.setattr(_solve, "MAX_SAMPLES", 20_000)
+    with pytest.raises(lsc.SimulationError, match=r"exact-chain: 20000 samples in one segment "
+                       r"by t = .* and no event: a contact rings at .* rad/s .* chatters"):
+        lsc.solve(RINGING, max_events=50)
+
+
 def _kelvin_chain():
     return {"units": "US",
             "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 100.0, "speed": 0.0},

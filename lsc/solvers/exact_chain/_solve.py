@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
 from ._modes import Motion, Series, Shape, deformation_map
 from ._roots import PER_RADIAN, Stack, earliest, extrema
@@ -25,8 +26,8 @@ __all__ = ["solve"]
 
 #: Event functions within this fraction of their scale (length, speed) are on their surface.
 START_TOL = 1e-13
-#: Most samples of one event function in one segment before the search gives up (the segment
-#: then ends at the last time searched with no event, and the run says the crash never ends).
+#: Most samples of one event function in one segment before the search gives up (a
+#: SimulationError that says so: a contact ringing on a near-plastic unloading line).
 MAX_SAMPLES = 2_000_000
 _EPS = float(np.finfo(float).eps)
 
@@ -115,8 +116,15 @@ class _Chain:
         motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0)
         tau, event = self._earliest(motion, funcs, horizon - t0)
+        if event is None and tau is not None:
+            raise SimulationError(
+                f"exact-chain: {MAX_SAMPLES} samples in one segment by t = {t0 + tau:.6g} s and "
+                f"no event: a contact rings at {motion.modes.fastest():.3g} rad/s for longer "
+                "than one segment can follow (a near-plastic contact, its unloading line up to "
+                "1/e² times stiffer than its loading, held shut by a neighbour: it chatters); "
+                "check the scene for contacts that chatter")
         if event is None:
-            tau = max(horizon - t0, 0.0) if tau is None else tau
+            tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
         self.spans.append((t0, t0 + tau, *self._peaks(motion, force, tau)))
         self.ends.append((y0, end))
