@@ -167,9 +167,13 @@ class Series:
             self._coef = list(zip(self.alpha.tolist(), self.gamma.tolist()))
         return self._coef
 
-    def with_slope(self, tau: float) -> tuple[float, float]:
-        """``(g(τ), g'(τ))`` at one time ``tau`` [s], from one evaluation of the basis
-        (``g' = Σ α_j (1 - κ_j C_j) + γ_j S_j``)."""
+    def with_slope(self, tau):
+        """``(g(τ), g'(τ))`` at one time ``tau`` [s] (or at times, 1-d), from one evaluation of
+        the basis (``g' = Σ α_j (1 - κ_j C_j) + γ_j S_j``)."""
+        if not isinstance(tau, float):
+            S, C = self.modes.basis(tau)
+            return (self.c + S @ self.alpha + C @ self.gamma,
+                    np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
         S, C = self.modes.basis_at(tau)
         g, dg = self.c, 0.0
         for (a, c), k, s_j, c_j in zip(self._terms(), self.modes._kappa, S, C):

@@ -226,14 +226,58 @@ def extrema(funcs, T: float) -> list[list[float]]:
         if not (d.alpha.any() or d.gamma.any()):
             continue   # a constant: no interior extremum
         start = _taylor_clear(d, T, float(np.sum(np.abs(stack.alpha[j]))))
+        B, flat = float(bounds[j]), FLAT * float(size[j])
+        idx = np.flatnonzero(unclear[j] & (tt[1:] > start))
+        if idx.size > MANY:   # (a derivative ringing: its plain sign changes refined at once)
+            a, b, da, db = tt[idx], tt[idx + 1], vals[j, idx], vals[j, idx + 1]
+            plain = ((da * db <= 0) & (da != db) & (a >= start)
+                     & ((np.maximum(np.abs(da), np.abs(db)) + B * (b - a) ** 2 / 8.0) * (b - a)
+                        > flat))
+            out[j] += _refine_many(d, a[plain], b[plain], da[plain], db[plain]).tolist()
+            idx = idx[~plain]
         v = vals[j].tolist()
-        for i in np.flatnonzero(unclear[j]).tolist():
-            if times[i + 1] <= start:
-                continue
+        for i in idx.tolist():
             a = max(times[i], start)
             out[j] += _sign_changes(d, a, times[i + 1], v[i] if a == times[i] else d(a),
-                                    v[i + 1], float(bounds[j]), FLAT * float(size[j]))
+                                    v[i + 1], B, flat)
     return out
+
+
+#: More intervals than this to search in one function: its plain sign changes are refined
+#: together (:func:`_refine_many`).
+MANY = 16
+#: How close :func:`_refine_many` puts a zero of a derivative, relative to its time.
+EXTREMUM_RTOL = 1e-13
+
+
+def _refine_many(g, a, b, ga, gb):
+    """:func:`_refine` on many brackets at once (arrays; each a sign change of the samples
+    ``ga, gb``, neither zero), by the same steps, to :data:`EXTREMUM_RTOL` of the time: these
+    are the zeros of a derivative, where the function's value is off by the square of that
+    (a ringing derivative's rounding moves its zeros by more than a few ulps: Newton's last
+    steps would wander in it)."""
+    up = gb > 0
+    t = a - ga * (b - a) / (gb - ga)
+    width, stalled = b - a, np.zeros(a.shape, int)
+    out, active = t.copy(), np.ones(a.shape, bool)
+    for _ in range(300):
+        if not active.any():
+            break
+        f, df = g.with_slope(t)
+        right = (f > 0) == up
+        b, a = np.where(active & right, t, b), np.where(active & ~right, t, a)
+        halved = b - a <= 0.5 * width
+        width, stalled = np.where(halved, b - a, width), np.where(halved, 0, stalled + 1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            new = t - f / df
+        close = np.abs(new - t) <= EXTREMUM_RTOL * np.abs(t)
+        new = np.where(~close & (~((a < new) & (new < b)) | (stalled >= 3)), 0.5 * (a + b), new)
+        done = active & ((f == 0) | close
+                         | (b - a <= 4 * _EPS * np.maximum(np.abs(a), np.abs(b))))
+        out = np.where(done, np.where(f == 0, t, new), out)
+        active &= ~done
+        t = np.where(active, new, t)
+    return np.where(active, t, out)
 
 
 def _taylor_clear(d: Series, T: float, rounding: float) -> float:
