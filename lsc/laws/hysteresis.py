@@ -24,8 +24,8 @@ def _lazy(cond, a, b, xp) -> dict:
     arrays) only the branch taken is evaluated, the same values as evaluating both and picking
     one (a transition is pure); with an array condition, or on ``jax.numpy`` (whose branches
     must agree in shape and type), both, then ``select``."""
-    if (cond is True or cond is False or isinstance(cond, (np.bool_, np.ndarray))
-            and np.ndim(cond) == 0) and not getattr(xp, "__name__", "").startswith("jax"):
+    if cond is True or cond is False or (isinstance(cond, (np.bool_, np.ndarray))
+            and np.ndim(cond) == 0 and not getattr(xp, "__name__", "").startswith("jax")):
         return dict(a() if cond else b())
     return _sel(cond, a(), b(), xp)
 
