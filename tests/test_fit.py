@@ -231,8 +231,9 @@ def test_fit_on_diffrax_takes_its_jacobian_by_autodiff_and_recovers_k_and_e(meas
 def test_jacobian_choice_is_checked_and_said(measured):
     with pytest.raises(lsc.SceneError, match="one of 'autodiff', '2-point', '3-point'"):
         fit(scene(), measured, PARAMS, jac="cs")
-    with pytest.raises(lsc.SceneError, match=r"autodiff does not apply: the closed-form backend"):
+    with pytest.raises(lsc.SceneError, match=r"jac='autodiff' does not apply: autodiff needs "
+                                             r"method='diffrax' \(this fit: closed-form\)"):
         fit(scene(), measured, PARAMS, jac="autodiff")
     f = fit(wrong_start(), measured, PARAMS)
-    assert f.jacobian == ("finite differences (2-point) of lsc.solve (the closed-form backend is "
-                          "not differentiated (autodiff needs method='diffrax'))")
+    assert f.jacobian == ("finite differences (2-point) of lsc.solve; autodiff needs "
+                          "method='diffrax' (this fit: closed-form)")

@@ -52,7 +52,7 @@ def choose(base, params, start, method, jac, options):
     backend, opts = resolve(base, method, options)
     why = None
     if backend != "diffrax":
-        why = f"the {backend} backend is not differentiated (autodiff needs method='diffrax')"
+        why = f"autodiff needs method='diffrax' (this fit: {backend})"
     elif opts.get("integrator", "Dopri8") not in _EXPLICIT:
         why = (f"the {opts['integrator']} integrator is implicit (autodiff re-takes the steps of "
                f"{', '.join(_EXPLICIT)})")
@@ -71,8 +71,8 @@ def choose(base, params, start, method, jac, options):
                 break
     if why is not None:
         if jac == "autodiff":
-            raise SceneError("jac", f"autodiff does not apply: {why}")
-        return None, f"{fd} ({why})"
+            raise SceneError("jac", f"jac='autodiff' does not apply: {why}")
+        return None, f"{fd}; {why}"
     solver = {k: v for k, v in opts.items() if k != "n_samples"}
     how = (f"forward-mode autodiff through the diffrax solve ({solver.get('integrator', 'Dopri8')}"
            f", rtol {solver.get('rtol', 1e-10):g})")
