@@ -159,9 +159,7 @@ def _traced(core, accel, force):
             return (moved - fp[:, None] * dte[None, :], dr1.T), (dte, *none_dense)
 
         def body(carry, it):
-            import os; EXP = os.environ.get("EXP", "")
-            brs = [step if "nostep" not in EXP else (lambda c, it: (c, (zero, *none_dense))), event if "noevent" not in EXP else (lambda c, it: (c, (zero, *none_dense)))]
-            new, out = lax.switch(it["kind"], [*brs, lambda c, it: (c, (zero, *none_dense))],
+            new, out = lax.switch(it["kind"], [step, event, lambda c, it: (c, (zero, *none_dense))],
                                   carry, it)
             return new, (carry, out)
 
