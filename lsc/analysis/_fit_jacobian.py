@@ -86,6 +86,20 @@ class Autodiff:
     def __init__(self, base, params, solver: dict):
         self.base, self.params, self.solver = base, params, solver
 
+    def warm(self, n_samples: int, roles) -> None:
+        """Start compiling what the fit's first solve and derivatives run (in the background,
+        side by side: :func:`lsc.solvers.diffrax_ode.series.warm`)."""
+        from ..solvers.diffrax_ode.series import warm
+
+        accel, force = self._rows(self.base, roles)
+        warm(HybridModel(self.base), len(self.params), n_samples, accel=accel, force=force,
+             **self.solver)
+
+    @staticmethod
+    def _rows(scene, roles):
+        where = [role_index(scene, r) for r in roles]
+        return ([i for kind, i in where if kind == "a"], [i for kind, i in where if kind == "F"])
+
     def channels(self, scene, values, t, roles) -> tuple[dict, dict]:
         """``(sim, jac)``: role → simulated channel on ``t`` [s] (time from first contact), role
         → its derivatives (len(t), P) along the parameters at ``values`` (scene units); ``scene``
@@ -95,9 +109,8 @@ class Autodiff:
 
         model = HybridModel(scene)
         tangents = [tangent(model, p, v) for p, v in zip(self.params, values)]
+        accel, force = self._rows(scene, roles)
         where = [role_index(scene, r) for r in roles]
-        accel = [i for kind, i in where if kind == "a"]
-        force = [i for kind, i in where if kind == "F"]
         vals, ders, info = sampled_jacobian(model, tangents, t, accel=accel, force=force,
                                             **self.solver)
         check_end(scene, float(t[-1]), info["t_end"])

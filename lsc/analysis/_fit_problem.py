@@ -38,6 +38,8 @@ class _Problem:
         self.weights = _weights(self.measured, weights or {})
         self.options = {"n_samples": n_samples or 10 * self.t.size, **options}
         self.nfev = 0
+        if autodiff is not None:
+            autodiff.warm(self.t.size, list(self.roles))
         self._last = None   # (x, residuals, Jacobian, channels) of the last autodiff evaluation
 
     def scene(self, p: np.ndarray) -> Scene:

@@ -23,7 +23,7 @@ from ..segments import Segment, build_result  # noqa: E402
 from .core import RECORD_FULL, check_settings, segment_loop, status_message  # noqa: E402
 from .dips import BARY, THETA  # noqa: E402
 
-__all__ = ["solve", "record", "events_of", "RECORD_NODES"]
+__all__ = ["solve", "record", "record_args", "events_of", "RECORD_NODES"]
 
 #: Nodes of the dense record of a single solve at first (then ``4 x max_steps`` if it fills).
 RECORD_NODES = 512
@@ -87,6 +87,17 @@ class _Dense:
         return self.sampler.evaluate(self.s, tt)
 
 
+def record_args(model, rtol, atol, t_end) -> tuple:
+    """The arguments of the compiled single solve (:attr:`~.core.SegmentLoop.single`) of
+    ``model``: its parameters (float64), ``rtol``, ``atol``, ``t_end`` and its horizon (NaN for
+    those not given)."""
+    p = jax.tree_util.tree_map(f64, model.params)
+    horizon = float(model.horizon()) if hasattr(model, "horizon") else np.nan
+    return (p, f64(rtol), f64(np.nan if atol is None else atol),
+            f64(np.nan if t_end is None else t_end),
+            f64(horizon if np.isfinite(horizon) else np.nan))
+
+
 def record(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, t_end=None,
            max_steps: int = 2048, max_events: int = 256):
     """The compiled segment loop of ``model`` in record mode (options as :func:`solve`):
@@ -94,11 +105,8 @@ def record(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None,
     parameters (float64) and its record as NumPy arrays (events, segments, step nodes, frames).
     Raises :class:`~lsc.errors.SimulationError` where the solve fails."""
     check_settings(integrator, rtol, atol, max_steps, max_events)
-    p = jax.tree_util.tree_map(f64, model.params)
-    horizon = float(model.horizon()) if hasattr(model, "horizon") else np.nan
-    args = (p, f64(rtol), f64(np.nan if atol is None else atol),
-            f64(np.nan if t_end is None else t_end),
-            f64(horizon if np.isfinite(horizon) else np.nan))
+    args = record_args(model, rtol, atol, t_end)
+    p = args[0]
     # a small dense record first (most solves take a few dozen steps; a record sized for
     # 4 x max_steps made the compiled solve ~25% slower); a solve that fills it runs again with
     # the full one
