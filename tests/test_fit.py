@@ -234,6 +234,9 @@ def test_jacobian_choice_is_checked_and_said(measured):
     with pytest.raises(lsc.SceneError, match=r"jac='autodiff' does not apply: autodiff needs "
                                              r"method='diffrax' \(this fit: closed-form\)"):
         fit(scene(), measured, PARAMS, jac="autodiff")
+    if have_diffrax():   # refused before anything is solved
+        with pytest.raises(lsc.SceneError, match="the Kvaerno5 integrator is implicit"):
+            fit(scene(), measured, PARAMS, method="diffrax", integrator="Kvaerno5", jac="autodiff")
     f = fit(wrong_start(), measured, PARAMS)
     assert f.jacobian == ("finite differences (2-point) of lsc.solve; autodiff needs "
                           "method='diffrax' (this fit: closed-form)")

@@ -15,11 +15,13 @@ to the end of the window). Each channel's residual (simulated - measured, scene 
 by the channel's peak ``|measured|`` (or multiplied by ``weights[role]``), so channels of
 different units can be fitted together.
 
-The Jacobian is taken by finite differences of :func:`lsc.solve` (forward, ``jac="2-point"``, or
-central, ``"3-point"``) on the parameters relative to their starting values, so the step is
-relative (``diff_step``, default ``√ε`` resp. ``ε^(1/3)`` of the starting value). This holds for any
-backend: :func:`lsc.analysis.sensitivity` differentiates through the diffrax solve, but only its
-summary metrics (ΔV, peak acceleration, duration), not the sampled time series a fit needs.
+The Jacobian: with ``method="diffrax"`` by forward-mode autodiff through the diffrax solve of the
+sampled channels (:mod:`._fit_jacobian`, :func:`lsc.solvers.diffrax_ode.series.sampled_jacobian`:
+the steps the solve took differentiated, event times moving with the parameters), one solve per
+point for the residuals and the Jacobian together; otherwise (or with ``jac="2-point"`` /
+``"3-point"``) by finite differences of :func:`lsc.solve` (forward or central) on the parameters
+relative to their starting values, so the step is relative (``diff_step``, default ``√ε`` resp.
+``ε^(1/3)`` of the starting value). ``FitResult.jacobian`` says which.
 
 Standard errors come from the Jacobian ``J`` at the solution (weighted residuals against the
 parameters). ``errors="independent"`` gives the ordinary least-squares ones, ``σ² = SSR/(n - p)``,
