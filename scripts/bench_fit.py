@@ -7,8 +7,8 @@ differences) and on diffrax (Jacobian by autodiff through the solve): first with
 included (the first diffrax solve of the process is inside the timed fit), then compiled, and
 the same compiled fit with finite differences (``jac="2-point"``) for comparison. Each line gives
 the wall time (and the process's CPU time over all its threads: on a busy machine the wall
-time is mostly waiting for a core), the simulations (``nfev``: solves, each with its derivatives on the autodiff path)
-and the Jacobian evaluations (``njev``). Targets (issue 14): under 2 s exact, under 10 s diffrax
+time is mostly waiting for a core), the simulations (``nfev``: solves, each with its
+derivatives on the autodiff path) and the Jacobian evaluations (``njev``). Targets (issue 14): under 2 s exact, under 10 s diffrax
 compile included, on a 2-core machine.
 
 The persistent compilation cache would make the 'compile included' figure a cache read in a

@@ -31,16 +31,17 @@ def check_end(scene, t_last: float, t_sim_end: float) -> None:
     """A scene with braking must be simulated to the end of the fitted window (its motion after
     the simulation is not known); without braking the channels are zero after the crash."""
     if any(v.brake is not None for v in scene.vehicles) and t_last > t_sim_end + 1e-12:
-        raise SimulationError(f"the scene has braking and its simulation ends at {t_sim_end:.6g} s, "
-                              f"before the fitted window ({t_last:.6g} s): pass a shorter window or "
-                              f"a later t_end")
+        raise SimulationError(f"the scene has braking and its simulation ends at {t_sim_end:.6g} "
+                              f"s, before the fitted window ({t_last:.6g} s): pass a shorter "
+                              f"window or a later t_end")
 
 
 def choose(base, params, start, method, jac, options):
     """``(autodiff, how)``: an :class:`Autodiff` where the Jacobian is taken by autodiff (``jac``
     ``None`` or ``"autodiff"``, the diffrax backend, an explicit integrator, every path a number
     of the model with a tangent), else ``None``; ``how`` says how it is taken (and why not by
-    autodiff); ``start``: the parameters' starting values. ``jac="autodiff"`` where it does not apply is a :class:`~lsc.SceneError`."""
+    autodiff); ``start``: the parameters' starting values. ``jac="autodiff"`` where it does not
+    apply is a :class:`~lsc.SceneError`."""
     if jac not in JACOBIANS:
         raise SceneError("jac", f"one of 'autodiff', '2-point', '3-point' (or leave it out), "
                                 f"got {jac!r}")

@@ -224,9 +224,9 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     autodiff, how = choose(base, params, start, method, jac, options)
     problem = _Problem(base, channels, params, ref, mapping, roles, weights, window, method,
                        n_samples, errors, options, autodiff, how)
-    sol = least_squares(problem.weighted, start / ref, jac=problem.jacobian if autodiff else jac or "2-point",
-                        bounds=(lower / ref, upper / ref),
-                        method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
+    sol = least_squares(problem.weighted, start / ref,
+                        jac=problem.jacobian if autodiff else jac or "2-point",
+                        bounds=(lower / ref, upper / ref), method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
                         max_nfev=max_nfev, x_scale=1.0)
     if sol.status <= 0:
         raise SimulationError(f"the fit did not converge: {sol.message} (raise max_nfev, or start "

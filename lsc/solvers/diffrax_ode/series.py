@@ -8,8 +8,8 @@ forward-mode automatic differentiation (``jax.jvp``, one tangent per parameter, 
 the integrator's steps as the solve took them, each step re-taken from its recorded start
 (as the Result's dense output re-takes it), and through the events:
 
-* a step ``y1 = Φ(y0, disc, p)`` carries the tangent ``δy1 = Φ_y δy0 + Φ_disc δdisc + Φ_p`` (the
-  step times held: the derivative of the solution at fixed times, not of where the step-size
+* a step ``y1 = Φ(y0, disc, p)`` carries the tangent ``δy1 = Φ_y δy0 + Φ_disc δdisc + Φ_p``
+  (the step times held: the derivative of the solution at fixed times, not of where the step-size
   controller happened to put its steps);
 * an event moves with the parameters: its time by the implicit function theorem on its event
   function ``g_i(t*, y(t*), disc, p) = 0``, ``dt*/dp = -(g_y δy + g_disc δdisc + g_p) / (g_t +
@@ -35,8 +35,9 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 from jax import lax  # noqa: E402
 
+from ...errors import SceneError  # noqa: E402
 from ...moving_frame import Frame  # noqa: E402
-from .core import segment_loop  # noqa: E402
+from .core import check_settings, segment_loop  # noqa: E402
 from .single import RECORD_NODES, events_of, record, record_args  # noqa: E402
 from .wrappers import SOLVERS  # noqa: E402
 
@@ -217,8 +218,9 @@ def sampled_jacobian(model, tangents, tau, *, accel=(), force=(), integrator: st
     core, p, out, ct, wall = record(model, integrator=integrator, rtol=rtol, atol=atol,
                                     t_end=t_end, max_steps=max_steps, max_events=max_events)
     if core.evals_per_step is None:
-        raise ValueError(f"sampled_jacobian needs an explicit integrator, not {integrator}")
-    discs, states, events, _ = events_of(model, core, out)
+        raise SceneError("solver.integrator", f"the derivatives re-take explicit Runge-Kutta "
+                                              f"steps (Tsit5, Dopri5, Dopri8), not {integrator}'s")
+    discs, _, events, _ = events_of(model, core, out)
     items, event_item = _items(model, out, discs)
     # the first contact (compare's alignment): at 0 where a contact is closed at the start, else
     # the first contact event (its time moves with the parameters), else the start
@@ -252,6 +254,7 @@ def warm(model, n_params: int, n_samples: int, *, accel=(), force=(), integrator
     samples runs (its solve, and its derivatives for up to 64 steps and events) and the dense
     output of a Result of up to 64 steps (:func:`~.single.solve`): XLA compiles each program on
     one core, so the three compile side by side where cores are free."""
+    check_settings(integrator, rtol, atol, max_steps, max_events)
     core = segment_loop(model, integrator, max_steps, max_events,
                         min(RECORD_NODES, 4 * int(max_steps)))
     args = record_args(model, rtol, atol, t_end)
