@@ -10,7 +10,7 @@ from lsc.analysis import calibrate_force_scale, read_channels
 from lsc.analysis.channels import write_csv, write_isomme
 from lsc.analysis.filters import cfc_filter
 from lsc.analysis.fit import fit, sampled_channels, scene_toml
-from helpers import have_diffrax
+from helpers import HARD, have_diffrax
 
 K, E = 24000.0, 0.4                        # lbf/ft, -
 STIFFNESS, RESTITUTION = "contacts.0.loading.stiffness", "contacts.0.unloading.restitution"
@@ -174,17 +174,33 @@ def test_autodiff_jacobian_of_the_sampled_channels_matches_central_differences()
     differences of the same sampled channels. A 0.05 ft gap puts first contact at 5 ms, so the
     samples (time from first contact) move with the speed through the contact's event time; the
     maximum deformation and separation move with all three. Central differences of relative step
-    1e-4 are good to ~1e-8 of a column's scale where the channel is smooth (truncation, h²) and to
-    ~1e-6 from the solver's noise (rtol 1e-10 over the step); the samples at 10 kHz lie much
-    further from the events than the events move over the step (~1e-5 x 0.1 s), so no sample
-    straddles a kink. Tolerance: 1e-4 of each column's largest value."""
+    1e-4 are good to ~1e-8 of a column's scale where the channel is smooth (truncation, h²); the
+    solve's own noise (its steps move with the parameters: ~1e-9 of a channel's scale) over the
+    step makes ~1e-5, the measured largest difference 2e-5; the samples at 10 kHz lie much further
+    from the events than the events move over the step (~1e-5 x 0.1 s), so no sample straddles a
+    kink. Tolerance: 1e-4 of each column's largest value (an event time's derivative left out, or
+    halved, as a clipped sample time did, is off by O(1))."""
+    base = scene().with_values({"contacts.0.gap": 0.05})
+    values, jac, info = _central_differences_agree(base, [STIFFNESS, RESTITUTION, "vehicles.0.speed"],
+                                                   np.array([K, E, 10.0]), 1e-4)
+    assert info["first_contact"] == pytest.approx(0.05 / 10.0, rel=1e-9)
+    truth = lsc.solve(base, "diffrax", n_samples=40000)
+    tau = T[T >= 0]
+    assert np.allclose(values[0], np.interp(tau, truth.t - info["first_contact"], truth.a[:, 0],
+                                            right=0.0),
+                       rtol=0, atol=1e-6 * np.max(np.abs(truth.a[:, 0])))
+    # the accelerations of a linear loading scale with the closing speed: v ∂a/∂v = a
+    assert np.allclose(10.0 * jac[:2, :, 2], values[:2], rtol=0, atol=1e-8 * np.max(np.abs(values)))
+
+
+def _central_differences_agree(base, paths, x0, tol):
+    """The autodiff derivatives of both accelerations and the force on 200 ms at 10 kHz against
+    central differences (relative step 1e-4) of the same channels, to ``tol`` of each column's
+    largest value."""
     from lsc.model import HybridModel
     from lsc.parameters import tangent
     from lsc.solvers.diffrax_ode.series import sampled_jacobian
 
-    base = scene().with_values({"contacts.0.gap": 0.05})
-    paths = [STIFFNESS, RESTITUTION, "vehicles.0.speed"]
-    x0 = np.array([K, E, 10.0])
     tau = T[T >= 0]
 
     def channels(x):
@@ -193,11 +209,6 @@ def test_autodiff_jacobian_of_the_sampled_channels_matches_central_differences()
         return sampled_jacobian(model, tangents, tau, accel=(0, 1), force=(0,))
 
     values, jac, info = channels(x0)
-    assert info["first_contact"] == pytest.approx(0.05 / 10.0, rel=1e-9)
-    truth = lsc.solve(base, "diffrax", n_samples=40000)
-    t_sim = truth.t - info["first_contact"]
-    assert np.allclose(values[0], np.interp(tau, t_sim, truth.a[:, 0], right=0.0),
-                       rtol=0, atol=1e-6 * np.max(np.abs(truth.a[:, 0])))
     for j in range(len(paths)):
         h = 1e-4 * x0[j]
         up, down = x0.copy(), x0.copy()
@@ -207,9 +218,23 @@ def test_autodiff_jacobian_of_the_sampled_channels_matches_central_differences()
         for row in range(3):
             scale = np.max(np.abs(central[row]))
             assert scale > 0
-            assert np.max(np.abs(jac[row, :, j] - central[row])) < 1e-4 * scale, (paths[j], row)
-    # the accelerations of a linear loading scale with the closing speed: v ∂a/∂v = a
-    assert np.allclose(10.0 * jac[:2, :, 2], values[:2], rtol=0, atol=1e-8 * np.max(np.abs(values)))
+            assert np.max(np.abs(jac[row, :, j] - central[row])) < tol * scale, (paths[j], row)
+    return values, jac, info
+
+
+@needs_diffrax
+@pytest.mark.skipif(not HARD, reason="hard-case mode (--hard): one more compile")
+def test_autodiff_jacobian_through_table_breakpoints_matches_central_differences():
+    """A loading table (two breakpoints on the way up), a gap, and a table scale, a restitution,
+    a speed and a weight: the tangents go through every event's transition (each breakpoint's
+    next segment, D_max, separation). Tolerance as above (measured: 4e-5)."""
+    base = lsc.Scene.load({
+        "units": "US", "g": "32.2 ft/s^2",
+        "vehicles": [{"name": "a", "weight": 3500, "speed": 10}, {"name": "b", "weight": 3000, "speed": 0}],
+        "contacts": [{"loading": {"table": [[0, 0], [0.2, 3000], [0.4, 9000], [0.8, 20000]]},
+                      "unloading": {"restitution": 0.4}, "gap": 0.02}]})
+    paths = ["contacts.0.loading.scale", RESTITUTION, "vehicles.0.speed", "vehicles.1.weight"]
+    _central_differences_agree(base, paths, np.array([1.0, 0.4, 10.0, 3000.0]), 1e-4)
 
 
 @needs_diffrax
