@@ -208,9 +208,11 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     ------
     lsc.SceneError
         A path that is no numeric field, a start outside its bounds, no fitted channel, fewer
-        samples than parameters, or parameters that the channels cannot tell apart.
+        samples than parameters, parameters that the channels cannot tell apart, an unknown
+        ``jac``, or ``jac="autodiff"`` where it does not apply.
     lsc.SimulationError
-        A simulation on the way fails (the message names the parameter values).
+        A simulation on the way fails (the message names the parameter values), or the
+        autodiff derivatives are not finite (an event that grazes its surface).
     """
     from scipy.optimize import least_squares
 
