@@ -56,8 +56,10 @@ class _Problem:
 
     def simulate(self, p: np.ndarray):
         """The scene at parameters ``p`` (scene units), its result and its channels on ``t``."""
-        sc, res = self._at(p, lambda: (lambda sc: (sc, solve(sc, self.method, **self.options)))(
-            self.scene(p)))
+        def run():
+            sc = self.scene(p)
+            return sc, solve(sc, self.method, **self.options)
+        sc, res = self._at(p, run)
         return sc, res, _simulated(res, self.t, self.roles)
 
     def _stacked(self, series: dict) -> np.ndarray:
