@@ -20,12 +20,13 @@ from ._common import select as _sel
 
 def _lazy(cond, a, b, xp) -> dict:
     """``select(cond, a(), b(), xp)`` for branches given as functions: with a condition known
-    now (a Python or NumPy boolean scalar: one scene's transition on Python floats or 0-d
-    arrays) only the branch taken is evaluated, the same values as evaluating both and picking
-    one (a transition is pure); with an array condition, or on ``jax.numpy`` (whose branches
-    must agree in shape and type), both, then ``select``."""
-    if (cond is True or cond is False or isinstance(cond, (np.bool_, np.ndarray))
-            and np.ndim(cond) == 0) and not getattr(xp, "__name__", "").startswith("jax"):
+    now (a Python boolean, on any ``xp``: the event a compiled transition is for; or a NumPy
+    boolean scalar, one scene's transition on Python floats or 0-d arrays) only the branch taken
+    is evaluated, the same values as evaluating both and picking one (a transition is pure);
+    with an array condition, or a NumPy scalar on ``jax.numpy`` (whose branches must agree in
+    shape and type), both, then ``select``."""
+    if cond is True or cond is False or (isinstance(cond, (np.bool_, np.ndarray))
+            and np.ndim(cond) == 0 and not getattr(xp, "__name__", "").startswith("jax")):
         return dict(a() if cond else b())
     return _sel(cond, a(), b(), xp)
 
