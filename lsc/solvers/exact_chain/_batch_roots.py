@@ -1,0 +1,311 @@
+"""Zeros and extrema of the event functions of many chains at once, with the guarantee of
+:mod:`._roots`.
+
+Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on windows of
+:data:`WINDOW` steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode), every member on its own
+window, all members in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
+from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
+both exceed that holds no zero; the first interval of a member that does not is either a sign
+change (a bracket, refined to a few ulps by the Illinois method with a bisection safeguard, all
+brackets at once) or is sampled again :data:`SUBDIVIDE` times finer, :data:`LEVELS` times at
+most. A member whose intervals the bound still cannot clear (a tangency) is handed back as
+*undecided*: the caller solves it alone, with :mod:`._roots`' own search.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._batch_modes import Sums
+from ._roots import PER_RADIAN
+
+__all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
+
+#: Sample steps per window of the batch search.
+WINDOW = 16
+#: How many times at most an interval the bound cannot clear is sampled again, finer.
+LEVELS = 3
+#: Most windows one segment of a member is searched over before it is handed back.
+MAX_WINDOWS = 256
+_EPS = float(np.finfo(float).eps)
+
+
+def start_times(g: Sums, tol, omega, limit):
+    """Where to start searching each function (b, F) [s] (:func:`._solve._start` for arrays):
+    0 normally; NaN where it stays on its surface all along the segment; where it starts within
+    ``tol`` (b, F) of zero, judged by its first derivative clear of ``tol ω^p`` (``omega``
+    (b,)): 0 going down (it fires now where ``g(0) <= 0``), going up the half of the interval
+    over which its Taylor polynomial and a bound on the next derivative keep it positive."""
+    c = g.c
+    out = np.zeros(c.shape)
+    on = np.abs(c) <= tol
+    if not on.any():
+        return out
+    rows, cols = np.nonzero(on)
+    h = Sums(c[rows, cols][:, None], g.alpha[rows, cols][:, None], g.gamma[rows, cols][:, None],
+             g.kappa[rows], g.w[rows])
+    order = 2 * g.alpha.shape[-1] + 1
+    om = omega[rows]
+    thr = tol[rows, cols]
+    T = np.minimum(limit[rows], 1.0 / om)
+    s = np.full(rows.size, np.nan)
+    todo = np.ones(rows.size, bool)
+    lower = h
+    for p in range(1, order + 1):
+        d = lower.derivative()
+        dp = d.c[:, 0]
+        hit = todo & (np.abs(dp) > thr * om ** p)
+        if hit.any():
+            B = lower.curvature_bound(T[:, None])[:, 0]
+            clear = np.where(B > 0, (p + 1) * dp / np.where(B > 0, B, 1.0), T)
+            s = np.where(hit, np.where(dp < 0, 0.0, np.minimum(0.5 * clear, T)), s)
+            todo &= ~hit
+        if not todo.any():
+            break
+        lower = d
+    out[rows, cols] = s
+    return out
+
+
+def earliest(g: Sums, armed, start, limit):
+    """The first downward zero of each member's armed functions (b, F) searched from ``start``
+    (b, F) up to ``limit`` (b,) [s]: ``(τ (b,), function (b,) or -1, undecided (b,) bool)``; -1
+    where none is found before ``limit`` (or, with ``undecided``, where the search gave up)."""
+    b, F = g.c.shape
+    tau = np.full(b, np.nan)
+    which = np.full(b, -1)
+    undecided = np.zeros(b, bool)
+    search = armed & ~np.isnan(start)
+    start = np.where(search, start, np.inf)
+    g_start = np.where(search, g.each_at(np.where(search, start, 0.0)), np.inf)
+    # a function at or below zero where its search starts fires there
+    now = search & (g_start <= 0)
+    if now.any():
+        t_now = np.where(now, start, np.inf)
+        j = np.argmin(t_now, axis=1)
+        got = now.any(axis=1)
+        tau[got], which[got] = t_now[got, j[got]], j[got]
+    B = g.curvature_bound()
+    rigid = g.kappa.max(axis=1) == 0
+    quad = rigid & ~now.any(axis=1)
+    if quad.any():
+        tau[quad], which[quad] = _quadratic(g.take(quad), search[quad], start[quad], limit[quad])
+    live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
+    step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
+    lo = np.zeros(b)
+    for _ in range(MAX_WINDOWS):
+        if not live.size:
+            break
+        t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
+                                                   g_start[live], lo[live], step[live],
+                                                   limit[live], search[live])
+        got = j_found >= 0
+        tau[live[got]], which[live[got]] = t_found[got], j_found[got]
+        undecided[live[stuck]] = True
+        lo[live] = cleared
+        live = live[~got & ~stuck & (cleared < limit[live])]
+    undecided[live] = True
+    return tau, which, undecided
+
+
+def _window(g, B, start, g_start, lo, step, limit, search):
+    """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
+    search has cleared up to, stuck)``. The first interval a member's bound cannot clear is
+    sampled again :data:`WINDOW` times finer (up to :data:`LEVELS` times)."""
+    n = g.c.shape[0]
+    found_t = np.full(n, np.nan)
+    found_j = np.full(n, -1)
+    stuck = np.zeros(n, bool)
+    a, h, end = lo, step, np.minimum(lo + WINDOW * step, limit)
+    cleared = end.copy()
+    todo = np.arange(n)
+    for level in range(LEVELS + 1):
+        gg = g.take(todo)
+        m = todo.size
+        tt = np.minimum(a[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
+        tt[:, -1] = end
+        vals = gg.at(tt)                                              # (m, F, W+1)
+        s0 = start[todo][:, :, None]
+        t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
+        left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
+                        vals[..., :-1])
+        right = np.where(t1 <= s0, np.inf, vals[..., 1:])
+        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
+        ok = search[todo][:, :, None]
+        cross = ok & (right <= 0)
+        unclear = ok & ~cross & (np.minimum(left, right) <= margin)
+        hit = cross | unclear
+        first = np.where(hit.any(axis=2), np.argmax(hit, axis=2), WINDOW)   # (m, F)
+        i = np.min(first, axis=1)                                           # (m,)
+        none = i == WINDOW
+        ic = np.minimum(i, WINDOW - 1)
+        at = (first == i[:, None]) & ~none[:, None]
+        rows = np.arange(m)
+        cr = at & cross[rows, :, ic]
+        deeper = (at & unclear[rows, :, ic]).any(axis=1)
+        brack = cr.any(axis=1) & ~deeper
+        if brack.any():
+            r = np.flatnonzero(brack)
+            rr, jj = np.nonzero(cr[r])
+            mem = r[rr]
+            ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
+            root = refine(gg.take(mem, jj), ta, tt[mem, ic[mem] + 1], left[mem, jj, ic[mem]],
+                          right[mem, jj, ic[mem]])
+            best = np.full(m, np.inf)
+            np.minimum.at(best, mem, root)
+            jbest = np.full(m, F_BIG)
+            np.minimum.at(jbest, mem, np.where(root == best[mem], jj, F_BIG))
+            found_t[todo[r]], found_j[todo[r]] = best[r], jbest[r]
+        if level == LEVELS:
+            stuck[todo[deeper]] = True
+            break
+        sel = np.flatnonzero(deeper)
+        if not sel.size:
+            break
+        a, end = tt[sel, ic[sel]], tt[sel, ic[sel] + 1]
+        cleared[todo[sel]] = end     # (a finer window covers the unclear interval only)
+        h = (end - a) / WINDOW
+        todo = todo[sel]
+    return found_t, found_j, cleared, stuck
+
+
+F_BIG = np.iinfo(np.int64).max
+
+
+def refine(g: Sums, a, b, fa, fb, iterations: int = 200):
+    """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
+    changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: the Illinois
+    method, bisecting where its step does not shrink the bracket enough."""
+    sign = np.where(np.asarray(fa) > 0, 1.0, -1.0)
+    a, b, fa, fb = (np.array(x, float) for x in (a, b, sign * fa, sign * fb))
+    side = np.zeros(a.size, int)
+    done = (fb == 0) | (b - a <= 4 * _EPS * np.maximum(np.abs(a), np.abs(b)))
+    for _ in range(iterations):
+        if done.all():
+            break
+        idx = np.flatnonzero(~done)
+        A, Bb, FA, FB = a[idx], b[idx], fa[idx], fb[idx]
+        x = Bb - FB * (Bb - A) / (FB - FA)
+        width = Bb - A
+        bad = ~((x > A) & (x < Bb)) | (side[idx] == 2)
+        x = np.where(bad, 0.5 * (A + Bb), x)
+        fx = sign[idx] * g.take(idx).each_at(x[:, None])[:, 0]
+        pos = fx > 0
+        # Illinois: halve the value kept on the side that stays
+        fa_new = np.where(pos, fx, np.where(side[idx] == -1, 0.5 * FA, FA))
+        fb_new = np.where(pos, np.where(side[idx] == 1, 0.5 * FB, FB), fx)
+        a[idx] = np.where(pos, x, A)
+        b[idx] = np.where(pos, Bb, x)
+        fa[idx], fb[idx] = fa_new, fb_new
+        new_side = np.where(pos, 1, -1)
+        shrunk = (b[idx] - a[idx]) <= 0.5 * width
+        side[idx] = np.where(~shrunk & (side[idx] == new_side), 2, new_side)
+        done[idx] = (fx == 0) | (b[idx] - a[idx] <= 4 * _EPS * np.maximum(np.abs(a[idx]),
+                                                                           np.abs(b[idx])))
+    return np.where(np.abs(fa) < np.abs(fb), a, b)
+
+
+def _quadratic(g: Sums, search, start, limit):
+    """``(τ, function)`` of members whose modes are all rigid: each function is ``c + p τ +
+    r τ²/2``, its first downward root after its start in closed form (as
+    :func:`._roots._quadratic_crossing`; a double root is a touch)."""
+    c = g.c
+    p = np.sum(g.alpha, axis=-1)
+    r = np.sum(g.gamma, axis=-1)
+    with np.errstate(all="ignore"):
+        disc = p * p - 2.0 * r * c
+        q = -0.5 * (p + np.copysign(np.sqrt(np.maximum(disc, 0.0)), p))
+        lin = np.where(p < 0, -c / p, np.nan)
+        r1 = np.where(r == 0, lin, np.where(disc > 0, 2.0 * q / r, np.nan))
+        r2 = np.where((r != 0) & (disc > 0) & (q != 0), c / q, np.nan)
+    best = np.full(c.shape, np.inf)
+    for root in (r1, r2):
+        good = (root > start) & (root <= limit[:, None]) & (p + r * root < 0) & search
+        best = np.where(good & (root < best), root, best)
+    j = np.argmin(best, axis=1)
+    t = best[np.arange(c.shape[0]), j]
+    return np.where(np.isfinite(t), t, np.nan), np.where(np.isfinite(t), j, -1)
+
+
+#: A function that provably varies by less than this fraction of its size over an interval
+#: has its extreme values there at the interval's samples, to rounding (:data:`._roots.FLAT`).
+FLAT = 1e-15
+
+
+def extremes(g: Sums, T, largest):
+    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest value (where
+    ``largest`` (F,)) or its value of largest magnitude, signed (elsewhere): ``(peaks (b, F),
+    undecided (b,))``. The values are taken at every sample, at both ends and at every zero
+    of the derivative, whose sign changes are found and refined as :func:`earliest` finds
+    zeros; an interval where the derivative may touch zero between samples of one sign is
+    cleared by a bound on the next derivative (the derivative is monotone there), or where
+    the function provably varies by less than :data:`FLAT` of its size over it; a member with
+    an interval neither clears is *undecided* (the caller solves it alone)."""
+    b, F = g.c.shape
+    d = g.derivative()
+    dd = d.derivative()
+    Bd, Bdd = d.curvature_bound(), dd.curvature_bound()
+    w_max = np.max(g.w, axis=1)
+    step = np.where(w_max > 0, 1.0 / (PER_RADIAN * np.where(w_max > 0, w_max, 1.0)),
+                    np.maximum(T, 1e-300) / 2)
+    best = np.full((b, F), np.nan)
+    undecided = np.zeros(b, bool)
+    lo = np.zeros(b)
+    live = np.arange(b)
+    for _ in range(MAX_WINDOWS * 4):
+        if not live.size:
+            break
+        h = step[live]
+        end = np.minimum(lo[live] + WINDOW * h, T[live])
+        tt = np.minimum(lo[live][:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
+        tt[:, -1] = end
+        gl, dl, ddl = g.take(live), d.take(live), dd.take(live)
+        vals, dv, ddv = gl.at(tt), dl.at(tt), ddl.at(tt)
+        _fold(best, live, vals, largest)
+        a, c = dv[..., :-1], dv[..., 1:]
+        change = (a * c <= 0) & (a != c)
+        margin = (Bd[live] * h[:, None] ** 2 / 8.0)[:, :, None]
+        grazing = ~change & (np.minimum(np.abs(a), np.abs(c)) <= margin)
+        if grazing.any():
+            e, f = ddv[..., :-1], ddv[..., 1:]
+            monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
+                                      > (Bdd[live] * h[:, None] ** 2 / 8.0)[:, :, None])
+            size = np.max(np.abs(vals), axis=2, keepdims=True)
+            flat = (np.maximum(np.abs(a), np.abs(c)) + margin) * h[:, None, None] <= FLAT * size
+            bad = grazing & ~monotone & ~flat
+            undecided[live[bad.any(axis=(1, 2))]] = True
+        if change.any():
+            r, j, i = np.nonzero(change)
+            ta, tb = tt[r, i], tt[r, i + 1]
+            roots = refine(dl.take(r, j), ta, tb, a[r, j, i], c[r, j, i])
+            at = gl.take(r, j).each_at(roots[:, None])[:, 0]
+            vals_r = np.full((live.size, F, 1), np.nan)
+            # (several roots of one function in a window: fold them one at a time)
+            order = np.lexsort((i, j, r))
+            r, j, at = r[order], j[order], at[order]
+            first = np.ones(r.size, bool)
+            while r.size:
+                key = r * F + j
+                first = np.concatenate([[True], key[1:] != key[:-1]])
+                vals_r[:] = np.nan
+                vals_r[r[first], j[first], 0] = at[first]
+                _fold(best, live, vals_r, largest)
+                r, j, at = r[~first], j[~first], at[~first]
+        lo[live] = end
+        live = live[(end < T[live]) & ~undecided[live]]
+    undecided[live] = True
+    return best, undecided
+
+
+def _fold(best, live, vals, largest):
+    """Fold the samples ``vals`` (m, F, n) (NaN: none) of members ``live`` into ``best``."""
+    with np.errstate(invalid="ignore"):
+        top = np.nanmax(np.where(np.isnan(vals), -np.inf, vals), axis=2)
+        mag = np.where(np.isnan(vals), -1.0, np.abs(vals))
+        k = np.argmax(mag, axis=2)
+        signed = np.take_along_axis(vals, k[..., None], axis=2)[..., 0]
+        old = best[live]
+        new_top = np.where(np.isnan(old), top, np.maximum(old, top))
+        new_mag = np.where(np.isnan(old) | (np.abs(signed) > np.abs(old)), signed, old)
+        new_mag = np.where(np.isnan(signed), old, new_mag)
+        best[live] = np.where(largest[None, :], new_top, new_mag)
