@@ -227,9 +227,13 @@ def _quadratic(g: Sums, search, start, limit):
     return np.where(np.isfinite(t), t, np.nan), np.where(np.isfinite(t), j, -1)
 
 
-#: A function that provably varies by less than this fraction of its size over an interval
-#: has its extreme values there at the interval's samples, to rounding (:data:`._roots.FLAT`).
-FLAT = 1e-15
+#: An interval where a function's derivative may touch zero between samples of one sign is
+#: left at its samples where the largest excess of the function over them that this allows
+#: is below this fraction of the function's size there (:data:`._roots.FLAT`, relaxed from
+#: 1e-15 to what :data:`._roots.DEPTH` bisections leave in the single solve).
+FLAT = 1e-14
+#: How many times at most :func:`extremes` samples an interval again, finer.
+PEAK_LEVELS = 6
 
 
 def extremes(g: Sums, T, largest):
@@ -237,10 +241,13 @@ def extremes(g: Sums, T, largest):
     ``largest`` (F,)) or its value of largest magnitude, signed (elsewhere): ``(peaks (b, F),
     undecided (b,))``. The values are taken at every sample, at both ends and at every zero
     of the derivative, whose sign changes are found and refined as :func:`earliest` finds
-    zeros; an interval where the derivative may touch zero between samples of one sign is
-    cleared by a bound on the next derivative (the derivative is monotone there), or where
-    the function provably varies by less than :data:`FLAT` of its size over it; a member with
-    an interval neither clears is *undecided* (the caller solves it alone)."""
+    zeros. Where the derivative may touch zero between two samples of one sign (the bound on
+    the third derivative cannot clear it), the function can exceed its samples there by at
+    most ``w (B w²/8 - min |g'|)`` (``w`` the width): such an interval is cleared where that is
+    below :data:`FLAT` of the function's size, or where the derivative is provably monotone on
+    it (a bound on the next derivative), else sampled again :data:`WINDOW` times finer, up to
+    :data:`PEAK_LEVELS` times; a member with an interval still not cleared is *undecided* (the
+    caller solves it alone)."""
     b, F = g.c.shape
     d = g.derivative()
     dd = d.derivative()
@@ -248,64 +255,59 @@ def extremes(g: Sums, T, largest):
     w_max = np.max(g.w, axis=1)
     step = np.where(w_max > 0, 1.0 / (PER_RADIAN * np.where(w_max > 0, w_max, 1.0)),
                     np.maximum(T, 1e-300) / 2)
-    best = np.full((b, F), np.nan)
+    top = np.full((b, F), -np.inf)
+    bottom = np.full((b, F), np.inf)
     undecided = np.zeros(b, bool)
-    lo = np.zeros(b)
-    live = np.arange(b)
+    late = []
+    # the intervals still to sample: member, start, end, step, level (0: the end is T)
+    r = np.arange(b)
+    lo, hi, h, level = np.zeros(b), np.asarray(T, float), step, np.zeros(b, int)
     for _ in range(MAX_WINDOWS * 4):
-        if not live.size:
+        if not r.size:
             break
-        h = step[live]
-        end = np.minimum(lo[live] + WINDOW * h, T[live])
-        tt = np.minimum(lo[live][:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
+        end = np.where(level == 0, np.minimum(lo + WINDOW * h, hi), hi)
+        tt = np.minimum(lo[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
         tt[:, -1] = end
-        gl, dl, ddl = g.take(live), d.take(live), dd.take(live)
-        vals, dv, ddv = gl.at(tt), dl.at(tt), ddl.at(tt)
-        _fold(best, live, vals, largest)
+        gl, dl, ddl = g.take(r), d.take(r), dd.take(r)
+        vals, dv = gl.at(tt), dl.at(tt)
+        np.fmax.at(top, r, np.max(vals, axis=2))
+        np.fmin.at(bottom, r, np.min(vals, axis=2))
         a, c = dv[..., :-1], dv[..., 1:]
         change = (a * c <= 0) & (a != c)
-        margin = (Bd[live] * h[:, None] ** 2 / 8.0)[:, :, None]
-        grazing = ~change & (np.minimum(np.abs(a), np.abs(c)) <= margin)
+        if change.any():
+            m, j, i = np.nonzero(change)
+            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
+            at = gl.take(m, j).each_at(roots[:, None])[:, 0]
+            np.fmax.at(top, (r[m], j), at)
+            np.fmin.at(bottom, (r[m], j), at)
+        w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
+        margin = Bd[r][:, :, None] * w ** 2 / 8.0
+        low = np.minimum(np.abs(a), np.abs(c))
+        grazing = ~change & (low <= margin)
+        new = []
         if grazing.any():
+            size = np.maximum(np.abs(top[r]), np.abs(bottom[r]))[:, :, None]
+            excess = w * (margin - low)
+            ddv = ddl.at(tt)
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
-                                      > (Bdd[live] * h[:, None] ** 2 / 8.0)[:, :, None])
-            size = np.max(np.abs(vals), axis=2, keepdims=True)
-            flat = (np.maximum(np.abs(a), np.abs(c)) + margin) * h[:, None, None] <= FLAT * size
-            bad = grazing & ~monotone & ~flat
-            undecided[live[bad.any(axis=(1, 2))]] = True
-        if change.any():
-            r, j, i = np.nonzero(change)
-            ta, tb = tt[r, i], tt[r, i + 1]
-            roots = refine(dl.take(r, j), ta, tb, a[r, j, i], c[r, j, i])
-            at = gl.take(r, j).each_at(roots[:, None])[:, 0]
-            vals_r = np.full((live.size, F, 1), np.nan)
-            # (several roots of one function in a window: fold them one at a time)
-            order = np.lexsort((i, j, r))
-            r, j, at = r[order], j[order], at[order]
-            first = np.ones(r.size, bool)
-            while r.size:
-                key = r * F + j
-                first = np.concatenate([[True], key[1:] != key[:-1]])
-                vals_r[:] = np.nan
-                vals_r[r[first], j[first], 0] = at[first]
-                _fold(best, live, vals_r, largest)
-                r, j, at = r[~first], j[~first], at[~first]
-        lo[live] = end
-        live = live[(end < T[live]) & ~undecided[live]]
-    undecided[live] = True
-    return best, undecided
-
-
-def _fold(best, live, vals, largest):
-    """Fold the samples ``vals`` (m, F, n) (NaN: none) of members ``live`` into ``best``."""
-    with np.errstate(invalid="ignore"):
-        top = np.nanmax(np.where(np.isnan(vals), -np.inf, vals), axis=2)
-        mag = np.where(np.isnan(vals), -1.0, np.abs(vals))
-        k = np.argmax(mag, axis=2)
-        signed = np.take_along_axis(vals, k[..., None], axis=2)[..., 0]
-        old = best[live]
-        new_top = np.where(np.isnan(old), top, np.maximum(old, top))
-        new_mag = np.where(np.isnan(old) | (np.abs(signed) > np.abs(old)), signed, old)
-        new_mag = np.where(np.isnan(signed), old, new_mag)
-        best[live] = np.where(largest[None, :], new_top, new_mag)
+                                      > Bdd[r][:, :, None] * w ** 2 / 8.0)
+            bad = grazing & ~monotone & (excess > FLAT * size)                # (m, F, W)
+            deep = bad & (level >= PEAK_LEVELS)[:, None, None]
+            if deep.any():   # (judged at the end, against the function's size on [0, T])
+                m, j, i = np.nonzero(deep)
+                late.append((r[m], j, excess[m, j, i]))
+            m, i = np.nonzero((bad & ~deep).any(axis=1))
+            new.append((r[m], tt[m, i], tt[m, i + 1], (tt[m, i + 1] - tt[m, i]) / WINDOW,
+                        level[m] + 1))
+        go = (level == 0) & (end < hi)
+        new.append((r[go], end[go], hi[go], h[go], level[go]))
+        r, lo, hi, h, level = (np.concatenate(x) for x in zip(*new))
+        keep = ~undecided[r]
+        r, lo, hi, h, level = r[keep], lo[keep], hi[keep], h[keep], level[keep]
+    undecided[r] = True
+    size = np.maximum(np.abs(top), np.abs(bottom))
+    for m, j, excess in late:
+        undecided[m[excess > FLAT * size[m, j]]] = True
+    peaks = np.where(largest[None, :] | (np.abs(top) >= np.abs(bottom)), top, bottom)
+    return peaks, undecided
