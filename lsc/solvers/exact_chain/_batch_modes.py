@@ -67,7 +67,7 @@ class Sums:
         w = self.w[:, None, :]
         inv = 1.0 / np.where(w > 0, w, 1.0)
         if T is None:
-            s_max = np.where(w > 0, inv, np.inf)
+            s_max = np.where(w > 0, inv, 0.0)   # (a rigid mode's κ α term is 0)
         else:
             s_max = np.where(w > 0, np.minimum(np.asarray(T)[..., None], inv),
                              np.asarray(T)[..., None])

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums
+from ._batch_modes import Sums, basis
 from ._roots import PER_RADIAN
 
 __all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
@@ -172,37 +172,42 @@ def _window(g, B, start, g_start, lo, step, limit, search):
 F_BIG = np.iinfo(np.int64).max
 
 
-def refine(g: Sums, a, b, fa, fb, iterations: int = 200):
+def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
-    changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: the Illinois
-    method, bisecting where its step does not shrink the bracket enough."""
+    changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
+    method on the closed-form derivative, kept inside the bracket (a step that leaves it, or
+    does not halve it, bisects), until the step is a few ulps of the time (or of the bracket's
+    width, for a zero at the start)."""
     sign = np.where(np.asarray(fa) > 0, 1.0, -1.0)
-    a, b, fa, fb = (np.array(x, float) for x in (a, b, sign * fa, sign * fb))
-    side = np.zeros(a.size, int)
-    done = (fb == 0) | (b - a <= 4 * _EPS * np.maximum(np.abs(a), np.abs(b)))
+    a, b = np.array(a, float), np.array(b, float)
+    floor = _EPS * (b - a)
+    x = np.where(np.abs(fa) < np.abs(fb), a, b)
+    w = g.w[:, 0, :] if g.w.ndim == 3 else g.w
+    alpha, gamma, kappa = g.alpha[:, 0], g.gamma[:, 0], g.kappa
+    c = g.c[:, 0]
+    live = np.flatnonzero((np.asarray(fb) != 0) & (np.asarray(fa) != 0))
+    x[np.asarray(fa) == 0] = a[np.asarray(fa) == 0]
     for _ in range(iterations):
-        if done.all():
+        if not live.size:
             break
-        idx = np.flatnonzero(~done)
-        A, Bb, FA, FB = a[idx], b[idx], fa[idx], fb[idx]
-        x = Bb - FB * (Bb - A) / (FB - FA)
-        width = Bb - A
-        bad = ~((x > A) & (x < Bb)) | (side[idx] == 2)
-        x = np.where(bad, 0.5 * (A + Bb), x)
-        fx = sign[idx] * g.take(idx).each_at(x[:, None])[:, 0]
-        pos = fx > 0
-        # Illinois: halve the value kept on the side that stays
-        fa_new = np.where(pos, fx, np.where(side[idx] == -1, 0.5 * FA, FA))
-        fb_new = np.where(pos, np.where(side[idx] == 1, 0.5 * FB, FB), fx)
-        a[idx] = np.where(pos, x, A)
-        b[idx] = np.where(pos, Bb, x)
-        fa[idx], fb[idx] = fa_new, fb_new
-        new_side = np.where(pos, 1, -1)
-        shrunk = (b[idx] - a[idx]) <= 0.5 * width
-        side[idx] = np.where(~shrunk & (side[idx] == new_side), 2, new_side)
-        done[idx] = (fx == 0) | (b[idx] - a[idx] <= 4 * _EPS * np.maximum(np.abs(a[idx]),
-                                                                           np.abs(b[idx])))
-    return np.where(np.abs(fa) < np.abs(fb), a, b)
+        xl = x[live]
+        S, C = basis(w[live], xl)
+        al, ga = alpha[live], gamma[live]
+        f = sign[live] * (c[live] + np.sum(al * S + ga * C, axis=1))
+        df = sign[live] * np.sum(al + ga * S - kappa[live] * al * C, axis=1)
+        lo, hi = a[live], b[live]
+        pos = f > 0     # (the zero lies above x where the function, made positive first, is)
+        lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
+        with np.errstate(all="ignore"):
+            new = xl - f / df
+        tol = 4 * _EPS * np.abs(xl) + floor[live]
+        done = (f == 0) | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
+        inside = (new >= lo) & (new <= hi) & np.isfinite(new)
+        new = np.where(inside, new, 0.5 * (lo + hi))
+        a[live], b[live] = lo, hi
+        x[live] = np.where(f == 0, xl, new)
+        live = live[~done]
+    return x
 
 
 def _quadratic(g: Sums, search, start, limit):
