@@ -49,12 +49,17 @@ class Sums:
                     self.kappa, self.w)
 
     def at(self, tau):
-        """``g`` (b, F, ...) at times ``tau`` (b, ...) of each member."""
-        S, C = basis(self.w.reshape((self.w.shape[0],) + (1,) * (np.ndim(tau) - 1)
-                                    + self.w.shape[1:]), tau)
-        return (self.c.reshape(self.c.shape + (1,) * (np.ndim(tau) - 1))
-                + np.einsum("bfn,b...n->bf...", self.alpha, S)
-                + np.einsum("bfn,b...n->bf...", self.gamma, C))
+        """``g`` (b, F, T) at times ``tau`` (b, T) of each member."""
+        return self.on(*self.basis(tau))
+
+    def basis(self, tau):
+        """``S, C`` (b, T, n) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
+        return basis(self.w[:, None, :], tau)
+
+    def on(self, S, C):
+        """``g`` (b, F, T) on the basis ``S, C`` (b, T, n) of :meth:`basis`."""
+        return (self.c[:, :, None] + np.matmul(self.alpha, np.swapaxes(S, 1, 2))
+                + np.matmul(self.gamma, np.swapaxes(C, 1, 2)))
 
     def each_at(self, tau):
         """``g`` (b, F) at one time per function ``tau`` (b, F)."""

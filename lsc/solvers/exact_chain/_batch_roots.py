@@ -274,26 +274,34 @@ def extremes(g: Sums, T, largest):
         tt = np.minimum(lo[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
         tt[:, -1] = end
         gl, dl, ddl = g.take(r), d.take(r), dd.take(r)
-        vals, dv = gl.at(tt), dl.at(tt)
+        S, C = gl.basis(tt)
+        vals, dv = gl.on(S, C), dl.on(S, C)
         np.fmax.at(top, r, np.max(vals, axis=2))
         np.fmin.at(bottom, r, np.min(vals, axis=2))
         a, c = dv[..., :-1], dv[..., 1:]
+        w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
+        margin = Bd[r][:, :, None] * w ** 2 / 8.0
         change = (a * c <= 0) & (a != c)
         if change.any():
-            m, j, i = np.nonzero(change)
+            # (a zero of g' whose value cannot beat the peak so far need not be refined:
+            # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
+            reach = (np.minimum(np.abs(vals[..., :-1]), np.abs(vals[..., 1:]))
+                     + w * (np.maximum(np.abs(a), np.abs(c)) + margin))
+            peak = np.where(largest[None, :], top[r],
+                            np.maximum(np.abs(top[r]), np.abs(bottom[r])))
+            beaten = reach < peak[:, :, None]
+            m, j, i = np.nonzero(change & ~beaten)
             roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
             at = gl.take(m, j).each_at(roots[:, None])[:, 0]
             np.fmax.at(top, (r[m], j), at)
             np.fmin.at(bottom, (r[m], j), at)
-        w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
-        margin = Bd[r][:, :, None] * w ** 2 / 8.0
         low = np.minimum(np.abs(a), np.abs(c))
         grazing = ~change & (low <= margin)
         new = []
         if grazing.any():
             size = np.maximum(np.abs(top[r]), np.abs(bottom[r]))[:, :, None]
             excess = w * (margin - low)
-            ddv = ddl.at(tt)
+            ddv = ddl.on(S, C)
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
                                       > Bdd[r][:, :, None] * w ** 2 / 8.0)
