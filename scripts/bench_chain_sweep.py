@@ -3,7 +3,7 @@ least 20,000 members per second on the 2-core machine), beside the single exact-
 looped over a subset (its throughput extrapolated), and the largest difference between the two
 on that subset (every metric, relative to its scale per member).
 
-Members (US units): masses 50 to 1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions
+Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): masses 50 to 1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions
 in [--e-min, 1] (a fifth elastic), gaps of 1e-3 to 1 ft (or none, 40 %), closing speeds 0.1 to
 30 ft/s per pair (or none, 30 %), the front car at rest or moving. The batch hands a member to
 the single solve where its vectorised search cannot decide, or after 200 events (contacts that
@@ -22,42 +22,18 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
 import lsc  # noqa: E402
 from lsc.model import HybridModel  # noqa: E402
 from lsc.result import METRICS  # noqa: E402
 from lsc.solvers import exact_chain  # noqa: E402
 from lsc.solvers.exact_chain import _batch  # noqa: E402
+from test_exact_chain_batch import random_chains  # noqa: E402  (the tests' random chains)
 
 #: The scale a metric is compared on, where not its own (a zero permanent set: e = 1).
 SCALE_OF = {"permanent_deformation": "max_deformation"}
-
-
-def random_chains(N: int, n: int, seed: int, e_min: float):
-    """The base scene and the swept values of ``n`` random ``N``-car chains (see above)."""
-    rng = np.random.default_rng(seed)
-    base = {"units": "US",
-            "vehicles": [{"mass": 100.0, "speed": 10.0 if i == 0 else 0.0} for i in range(N)],
-            "contacts": [{"loading": {"stiffness": 1e4}, "unloading": {"restitution": 0.5},
-                          "gap": 0.1} for _ in range(N - 1)]}
-    closing = np.where(rng.random((n, N - 1)) < 0.3, 0.0, 10 ** rng.uniform(-1, 1.5, (n, N - 1)))
-    v = np.empty((n, N))
-    v[:, -1] = np.where(rng.random(n) < 0.5, 0.0, rng.uniform(-10, 20, n))
-    for i in range(N - 2, -1, -1):
-        v[:, i] = v[:, i + 1] + closing[:, i]
-    v[:, 0] += np.where(v[:, 0] == v[:, -1], 10.0, 0.0)
-    values = {}
-    for i in range(N):
-        values[f"vehicles.{i}.mass"] = 10 ** rng.uniform(np.log10(50.0), 3.0, n)
-        values[f"vehicles.{i}.speed"] = v[:, i]
-    for k in range(N - 1):
-        values[f"contacts.{k}.loading.stiffness"] = 10 ** rng.uniform(3, 7, n)
-        values[f"contacts.{k}.unloading.restitution"] = np.where(
-            rng.random(n) < 0.2, 1.0, rng.uniform(e_min, 1.0, n))
-        values[f"contacts.{k}.gap"] = np.where(rng.random(n) < 0.4, 0.0,
-                                               10 ** rng.uniform(-3, 0, n))
-    return lsc.load_scene(base), values
 
 
 def main() -> None:
