@@ -3,8 +3,8 @@ least 20,000 members per second on the 2-core machine), beside the single exact-
 looped over a subset (its throughput extrapolated), and the largest difference between the two
 on that subset (every metric, relative to its scale per member).
 
-Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): masses 50 to 1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions
-in [--e-min, 1] (a fifth elastic), gaps of 1e-3 to 1 ft (or none, 40 %), closing speeds 0.1 to
+Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): masses 50 to
+1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions in [--e-min, 1] (a fifth elastic), gaps of 1e-3 to 1 ft (or none, 40 %), closing speeds 0.1 to
 30 ft/s per pair (or none, 30 %), the front car at rest or moving. The batch hands a member to
 the single solve where its vectorised search cannot decide, or after 200 events (contacts that
 chatter): the count is reported, with the time the batch spends on them.

@@ -218,7 +218,6 @@ class _Batch:
                 new = self._full(law.on_event(kind[r], D[r, k], Wd[r, k], old,
                                               _subset(self.cp[k], ix[r]), np), r.size)
             for key, a in new.items():
-                st[k][key] = st[k][key].copy() if not st[k][key].flags.writeable else st[k][key]
                 st[k][key][r] = a
             opens[r, k] = (new["mode"] == MODE_OPEN) & (old["mode"] != MODE_OPEN)
             closes[r, k] = (new["mode"] != MODE_OPEN) & (old["mode"] == MODE_OPEN)

@@ -6,10 +6,10 @@ Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on w
 window, all members in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
 from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
 both exceed that holds no zero; the first interval of a member that does not is either a sign
-change (a bracket, refined to a few ulps by the Illinois method with a bisection safeguard, all
-brackets at once) or is sampled again :data:`SUBDIVIDE` times finer, :data:`LEVELS` times at
-most. A member whose intervals the bound still cannot clear (a tangency) is handed back as
-*undecided*: the caller solves it alone, with :mod:`._roots`' own search.
+change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
+once) or is sampled again :data:`WINDOW` times finer, :data:`LEVELS` times at most. A member
+whose intervals the bound still cannot clear (a tangency) is handed back as *undecided*: the
+caller solves it alone, with :mod:`._roots`' own search.
 """
 
 from __future__ import annotations
