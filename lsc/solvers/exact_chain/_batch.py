@@ -25,6 +25,7 @@ from ... import metrics as _metrics
 from ... import parameters
 from ...contact import MODE_OPEN
 from ...errors import SceneError, SimulationError
+from ...impacts import TIME_RESOLUTION
 from ...model import OVER_TOL, HybridModel
 from ...result import METRICS
 from ..exact.batch import _Rows
@@ -100,6 +101,19 @@ def _subset(p: dict, rows) -> dict:
     return {k: (v.take(rows) if isinstance(v, _Rows) else v[rows]) for k, v in p.items()}
 
 
+#: The metrics that may be NaN (not applicable) in a Result (``lsc.result._NOT_APPLICABLE``).
+_MAY_BE_NAN = ("restitution", "restitution_energy", "failure_time")
+
+
+def _resolved(t0, t1):
+    """Whether the clock resolves ``[t0, t1]`` to :data:`lsc.impacts.TIME_RESOLUTION`
+    (:func:`lsc.impacts.check_resolved`, on arrays; NaN ``t0``: nothing to check)."""
+    with np.errstate(invalid="ignore"):
+        span = t1 - t0
+        ulp = np.spacing(np.maximum(np.abs(t0), np.abs(t1)))
+        return np.isnan(t0) | (span * TIME_RESOLUTION >= ulp)
+
+
 class _Batch:
     """Every member's state, advanced event by event (see the module docstring)."""
 
@@ -133,7 +147,7 @@ class _Batch:
         first = _metrics.first_impacts_init(touching, v, F0, (F0 @ -self.C) / self.m, np)
         # the working set (ix: each member's index in the batch)
         w = {"ix": np.arange(n), "x": x, "v": v, "t": np.zeros(n), "nev": touching.sum(axis=1),
-             "v_post": np.full((n, N), np.nan)}
+             "v_post": np.full((n, N), np.nan), "since": np.where(touching, 0.0, np.nan)}
         code = np.full(n, RUNNING)
         out = {"t": np.zeros(n), "v": np.zeros((n, N)), "v_post": np.zeros((n, N)),
                **{key: np.zeros((n, K)) for key in ("dmax", "dperm", "ec", "er")}}
@@ -167,7 +181,9 @@ class _Batch:
                 break
             w, st, first, keep = self._step(w, st, first)
             code[w["ix"][~keep]] = ALONE
-        return self._metrics(out, out_first, code), code
+        metrics = self._metrics(out, out_first, code)
+        code[(code == DONE) & ~self._result_checks(metrics, out, out_first)] = ALONE
+        return metrics, code
 
     def _step(self, w, st, first):
         """One segment and one event of every live member: ``(w, st, first, keep)``, ``keep``
@@ -223,6 +239,10 @@ class _Batch:
             closes[r, k] = (new["mode"] != MODE_OPEN) & (old["mode"] == MODE_OPEN)
             keep[r[new["status"] != 0]] = False
         first = _metrics.event_update(first, w["t"], v1, closes, opens, np)
+        # each impact (touch to separation) must be resolved by the clock (check_resolved)
+        t_now = w["t"][:, None]
+        keep &= ~np.any(opens & ~_resolved(w["since"], t_now), axis=1)
+        w["since"] = np.where(closes, t_now, np.where(opens, np.nan, w["since"]))
         sep = opens.any(axis=1)
         w["v_post"] = np.where(sep[:, None], v1, w["v_post"])
         return w, st, first, keep
@@ -273,6 +293,19 @@ class _Batch:
         series = Sums(c, alpha, gamma, motion.kappa[r], motion.w[r])
         largest = np.arange(self.K + self.N) < self.K
         return extremes(series, tau, largest)
+
+    def _result_checks(self, metrics, out, first) -> np.ndarray:
+        """(n,): what ``Result.build`` checks besides the impacts (the whole crash resolved by
+        the clock, every metric finite where a number is expected); a member that fails them
+        is solved alone, for the single solve's own message."""
+        ok = _resolved(np.nanmin(np.where(np.isnan(first["contact_time"]), np.inf,
+                                          first["contact_time"]), axis=1), out["t"])
+        ok |= np.all(np.isnan(first["contact_time"]), axis=1)
+        for name in METRICS:
+            a = metrics[name].reshape(self.n, -1)
+            allowed = np.isnan(a) if name in _MAY_BE_NAN else np.zeros(a.shape, bool)
+            ok &= np.all(np.isfinite(a) | allowed, axis=1)
+        return ok
 
     def _over(self, w, st) -> np.ndarray:
         """(b,): every contact open and none closing again before the horizon
