@@ -93,12 +93,15 @@ def earliest(g: Sums, armed, start, limit):
     live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
     step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
     lo = np.zeros(b)
-    for _ in range(MAX_WINDOWS):
+    for k in range(MAX_WINDOWS):
         if not live.size:
             break
+        # (windows that double, up to 64 times the first: a member whose event is far
+        # away takes few of them)
+        count = WINDOW << min(k, 6)
         t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
                                                    g_start[live], lo[live], step[live],
-                                                   limit[live], search[live])
+                                                   limit[live], search[live], count)
         got = j_found >= 0
         tau[live[got]], which[live[got]] = t_found[got], j_found[got]
         undecided[live[stuck]] = True
@@ -108,23 +111,24 @@ def earliest(g: Sums, armed, start, limit):
     return tau, which, undecided
 
 
-def _window(g, B, start, g_start, lo, step, limit, search):
+def _window(g, B, start, g_start, lo, step, limit, search, count):
     """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
-    search has cleared up to, stuck)``. The first interval a member's bound cannot clear is
+    search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's bound cannot clear is
     sampled again :data:`WINDOW` times finer (up to :data:`LEVELS` times)."""
     n = g.c.shape[0]
     found_t = np.full(n, np.nan)
     found_j = np.full(n, -1)
     stuck = np.zeros(n, bool)
-    a, h, end = lo, step, np.minimum(lo + WINDOW * step, limit)
+    a, h, end = lo, step, np.minimum(lo + count * step, limit)
     cleared = end.copy()
     todo = np.arange(n)
+    steps = count
     for level in range(LEVELS + 1):
         gg = g.take(todo)
         m = todo.size
-        tt = np.minimum(a[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
+        tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
         tt[:, -1] = end
-        vals = gg.at(tt)                                              # (m, F, W+1)
+        vals = gg.at(tt)                                              # (m, F, steps + 1)
         s0 = start[todo][:, :, None]
         t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
         left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
@@ -135,10 +139,10 @@ def _window(g, B, start, g_start, lo, step, limit, search):
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
         hit = cross | unclear
-        first = np.where(hit.any(axis=2), np.argmax(hit, axis=2), WINDOW)   # (m, F)
+        first = np.where(hit.any(axis=2), np.argmax(hit, axis=2), steps)    # (m, F)
         i = np.min(first, axis=1)                                           # (m,)
-        none = i == WINDOW
-        ic = np.minimum(i, WINDOW - 1)
+        none = i == steps
+        ic = np.minimum(i, steps - 1)
         at = (first == i[:, None]) & ~none[:, None]
         rows = np.arange(m)
         cr = at & cross[rows, :, ic]
@@ -164,7 +168,8 @@ def _window(g, B, start, g_start, lo, step, limit, search):
             break
         a, end = tt[sel, ic[sel]], tt[sel, ic[sel] + 1]
         cleared[todo[sel]] = end     # (a finer window covers the unclear interval only)
-        h = (end - a) / WINDOW
+        steps = WINDOW
+        h = (end - a) / steps
         todo = todo[sel]
     return found_t, found_j, cleared, stuck
 
