@@ -7,9 +7,10 @@ window, all members in one NumPy evaluation. Between two samples ``Δ`` apart a 
 from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
 both exceed that holds no zero; the first interval of a member that does not is either a sign
 change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
-once) or is sampled again :data:`WINDOW` times finer, :data:`LEVELS` times at most. A member
-whose intervals the bound still cannot clear (a tangency) is handed back as *undecided*: the
-caller solves it alone, with :mod:`._roots`' own search.
+once) or is sampled again :data:`WINDOW` times finer, until narrower than :data:`._roots.TOUCH`
+of its time, where it is a touch (as the single solve decides). A member whose intervals the
+bound still cannot clear after :data:`LEVELS` finer samplings is handed back as *undecided*:
+the caller solves it alone, with :mod:`._roots`' own search.
 """
 
 from __future__ import annotations
@@ -17,14 +18,15 @@ from __future__ import annotations
 import numpy as np
 
 from ._batch_modes import Sums, basis
-from ._roots import PER_RADIAN
+from ._roots import PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
 
 #: Sample steps per window of the batch search.
 WINDOW = 16
-#: How many times at most an interval the bound cannot clear is sampled again, finer.
-LEVELS = 3
+#: How many times at most an interval the bound cannot clear is sampled again, finer (16^13:
+#: below :data:`._roots.TOUCH` of any window, where it is a touch).
+LEVELS = 13
 #: Most windows one segment of a member is searched over before it is handed back.
 MAX_WINDOWS = 256
 _EPS = float(np.finfo(float).eps)
@@ -148,6 +150,13 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
         cr = at & cross[rows, :, ic]
         deeper = (at & unclear[rows, :, ic]).any(axis=1)
         brack = cr.any(axis=1) & ~deeper
+        # an interval narrower than TOUCH of its time that the bound cannot clear is a
+        # tangency, not a crossing (as :func:`._roots._hunt` decides): the search goes on
+        # after it
+        touch = deeper & (tt[rows, ic + 1] - tt[rows, ic]
+                          <= TOUCH * np.maximum(tt[:, -1], 1e-300))
+        cleared[todo[touch]] = tt[touch, ic[touch] + 1]
+        deeper &= ~touch
         if brack.any():
             r = np.flatnonzero(brack)
             rr, jj = np.nonzero(cr[r])
