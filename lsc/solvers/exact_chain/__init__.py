@@ -6,20 +6,27 @@ linear, ``M x'' = -K x + f``, and is solved in closed form in the modes of ``M^{
 on a falling table piece) plus a quadratic, whose first downward zero is found with a guarantee
 that none is missed (:mod:`._roots`). The transitions are the model's own.
 
-This module holds the declaration only; :func:`solve` is imported on first use.
+Many chains of one shape (straight loading and unloading lines) are solved at once by
+:func:`solve_batch` (:mod:`._batch`: one NumPy evaluation per event over every member).
+
+This module holds the declaration only; :func:`solve` and :func:`solve_batch` are imported on
+first use.
 """
 
 from __future__ import annotations
 
 from ..base import Backend
 
-__all__ = ["BACKEND", "solve"]
+__all__ = ["BACKEND", "solve", "solve_batch"]
 
 BACKEND = Backend(
-    name="exact-chain", module="lsc.solvers.exact_chain._solve",
+    name="exact-chain", module="lsc.solvers.exact_chain",
     options=("t_end", "n_samples", "max_events"), exact=True, cost=2.0, vehicles=(3, None),
     solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
                       "unloading:stiffness", "gap:open"}),
+    batch=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
+                     "unloading:stiffness", "gap:open"}),
+    batch_options=("max_events",),
     summary="exact piecewise solution of chains (modal closed form, guaranteed event search)",
     # auto picks it for every chain it declares (exact, and many times faster than SciPy)
     auto=True)
@@ -30,4 +37,8 @@ def __getattr__(name):
         from ._solve import solve
 
         return solve
+    if name == "solve_batch":
+        from ._batch import solve_batch
+
+        return solve_batch
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,338 @@
+"""The exact-chain backend's batch: many chains of one shape advanced together, one NumPy
+evaluation per event over every unfinished member.
+
+Each iteration every live member solves its own segment in closed form
+(:class:`~._batch_modes.BatchMotion`), finds its earliest event with the guarantee of
+:mod:`._roots` (:func:`~._batch_roots.earliest`, the restart rule of :func:`._solve._start`
+included: :func:`~._batch_roots.start_times`), folds the peaks between the events into its
+first-impact record (:func:`~._batch_roots.extremes`, :mod:`lsc.metrics`) and takes the law's
+own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
+contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
+Result computes them. A member the vectorised search cannot decide (a tangency, a segment
+longer than its windows, a law status, a non-finite state) or that reaches
+:data:`HANDOFF_EVENTS` events is solved alone (:func:`._solve.solve`), so that its numbers and
+its failure message are the single solve's own; none is dropped.
+
+Straight loading lines and straight unloading lines only (``BACKEND.batch``): every slope is
+>= 0, and a contact never leaves its first loading piece.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ... import metrics as _metrics
+from ... import parameters
+from ...contact import MODE_OPEN
+from ...errors import SceneError, SimulationError
+from ...impacts import TIME_RESOLUTION
+from ...model import OVER_TOL, HybridModel
+from ...result import METRICS
+from ..exact.batch import _Rows
+from ._batch_modes import BatchMotion, Sums
+from ._batch_roots import earliest, extremes, start_times
+from ._modes import deformation_map
+from ._solve import START_TOL, solve as solve_one
+
+__all__ = ["solve_batch", "HANDOFF_EVENTS"]
+
+#: A member still running after this many events (contacts that chatter) is handed to the
+#: single solve, which goes on to its end or to ``max_events`` as it would alone.
+HANDOFF_EVENTS = 200
+_EPS = float(np.finfo(float).eps)
+#: Member status codes of :class:`_Batch`.
+RUNNING, DONE, ALONE = -1, 0, 1
+
+
+def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000) -> dict:
+    """Exact metrics of every member of ``values`` (dotted scene path → (n,) array in scene
+    units) of ``model``'s chain, at once (the backend contract's ``solve_batch``).
+
+    Returns ``{"metrics": {name: (n, ...) for every name of lsc.result.METRICS}, "status":
+    (n,) object array}``: ``"ok"``, or ``"SimulationError: <the single solve's message>"``.
+    ``progress(k)``: advanced as ``k`` members finish. ``max_events``: as the single solve's.
+    """
+    p = parameters.batch_params(model, values)
+    if p is None:
+        path = next(q for q in values if parameters.batch_params(model, {q: values[q][:1]}) is None)
+        raise SceneError(path, "the exact-chain batch sets only paths that map onto the model's "
+                               "numbers (speeds, masses, weights, gaps, stiffnesses, restitution, "
+                               "loading scale); solve the members one by one (lsc.sweep does)")
+    n = p["m"].shape[0]
+    run = _Batch(model, p, min(max_events, HANDOFF_EVENTS))
+    metrics, code = run.solve() if n else ({}, np.zeros(0, int))
+    shapes = {"scene": (n,), "vehicle": (n, model.N), "contact": (n, model.K)}
+    metrics = {name: np.array(metrics[name], float).reshape(shapes[per]) if n
+               else np.full(shapes[per], np.nan) for name, (_, per) in METRICS.items()}
+    status = np.full(n, "ok", dtype=object)
+    if progress is not None and np.any(code == DONE):
+        progress(int(np.sum(code == DONE)))
+    for j in np.flatnonzero(code != DONE):
+        status[j] = _solve_member(model, values, j, metrics, max_events)
+        if progress is not None:
+            progress(1)
+    return {"metrics": metrics, "status": status}
+
+
+def _solve_member(model, values: dict, j: int, metrics: dict, max_events: int) -> str:
+    """Member ``j`` solved alone (its metrics written into ``metrics``): ``"ok"`` or
+    ``"SimulationError: <the single solve's message>"`` (NaN metrics)."""
+    member = {path: float(v[j]) for path, v in values.items()}
+    try:
+        r = solve_one(HybridModel(model.scene.with_values(member)), n_samples=2,
+                      max_events=max_events)
+    except SimulationError as err:
+        for arr in metrics.values():
+            arr[j] = np.nan
+        return f"SimulationError: {err}"
+    for name, arr in metrics.items():
+        arr[j] = getattr(r, name)
+    return "ok"
+
+
+def _contact_params(c: dict) -> dict:
+    """One contact's batched law numbers (leading axis n) for the law's array code: tables as
+    :class:`~lsc.solvers.exact.batch._Rows` (a member's own entry for a member's index)."""
+    return {k: (_Rows(np.ascontiguousarray(np.asarray(v, float).T)) if np.ndim(v) == 2 else
+                np.asarray(v, float)) for k, v in c.items()}
+
+
+def _subset(p: dict, rows) -> dict:
+    return {k: (v.take(rows) if isinstance(v, _Rows) else v[rows]) for k, v in p.items()}
+
+
+#: The metrics that may be NaN (not applicable) in a Result (``lsc.result._NOT_APPLICABLE``).
+_MAY_BE_NAN = ("restitution", "restitution_energy", "failure_time")
+
+
+def _resolved(t0, t1):
+    """Whether the clock resolves ``[t0, t1]`` to :data:`lsc.impacts.TIME_RESOLUTION`
+    (:func:`lsc.impacts.check_resolved`, on arrays; NaN ``t0``: nothing to check)."""
+    with np.errstate(invalid="ignore"):
+        span = t1 - t0
+        ulp = np.spacing(np.maximum(np.abs(t0), np.abs(t1)))
+        return np.isnan(t0) | (span * TIME_RESOLUTION >= ulp)
+
+
+class _Batch:
+    """Every member's state, advanced event by event (see the module docstring)."""
+
+    def __init__(self, model, p: dict, max_events: int):
+        self.model, self.max_events = model, max_events
+        self.N, self.K = N, K = model.N, model.K
+        self.C = deformation_map(N)
+        self.laws = model.laws
+        n = p["m"].shape[0]
+        self.n = n
+        self.m, self.gap = np.asarray(p["m"], float), np.asarray(p["gap"], float)
+        self.v0 = np.asarray(p["v0"], float)
+        self.cp = [_contact_params(c) for c in p["contacts"]]
+        self.v_scale = model.speed_scale(p)
+        self.t_scale = model.time_scale(p=p)
+        self.horizon = model.horizon(p=p)
+        self.g = float(model.scene.g)
+
+    # ------------------------------------------------------------------ the run
+    def solve(self):
+        """``(metrics of lsc.metrics.metrics, code (n,))``: code :data:`DONE` or :data:`ALONE`."""
+        n, N, K = self.n, self.N, self.K
+        x, v = np.zeros((n, N)), self.v0.copy()
+        D, W = x @ self.C.T - self.gap, v @ self.C.T
+        with np.errstate(all="ignore"):
+            st = [self._full(law.init(D[:, k], W[:, k], self.cp[k], np), n)
+                  for k, law in enumerate(self.laws)]
+        touching = np.stack([s["mode"] != MODE_OPEN for s in st], axis=1)
+        F0 = np.where(touching, np.stack([law.force(D[:, k], 0.0, s) for k, (law, s) in
+                                          enumerate(zip(self.laws, st))], axis=1), 0.0)
+        first = _metrics.first_impacts_init(touching, v, F0, (F0 @ -self.C) / self.m, np)
+        # the working set (ix: each member's index in the batch)
+        w = {"ix": np.arange(n), "x": x, "v": v, "t": np.zeros(n), "nev": touching.sum(axis=1),
+             "v_post": np.full((n, N), np.nan), "since": np.where(touching, 0.0, np.nan)}
+        code = np.full(n, RUNNING)
+        out = {"t": np.zeros(n), "v": np.zeros((n, N)), "v_post": np.zeros((n, N)),
+               **{key: np.zeros((n, K)) for key in ("dmax", "dperm", "ec", "er")}}
+        out_first = {k: np.zeros((n,) + np.shape(a)[1:]) for k, a in first.items()}
+        status0 = np.any(np.stack([s["status"] for s in st], axis=1) != 0, axis=1)
+        code[status0] = ALONE
+        keep = ~status0
+        while True:
+            w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
+                            self._take(first, keep))
+            if not w["ix"].size:
+                break
+            over = self._over(w, st)
+            if over.any():
+                j = w["ix"][over]
+                code[j] = DONE
+                out["t"][j], out["v"][j] = w["t"][over], w["v"][over]
+                out["v_post"][j] = np.where(np.isnan(w["v_post"][over]), w["v"][over],
+                                            w["v_post"][over])
+                for key in ("dmax", "dperm", "ec", "er"):
+                    out[key][j] = np.stack([s[key][over] for s in st], axis=1)
+                for key, a in first.items():
+                    out_first[key][j] = a[over]
+            alone = ~over & (w["nev"] >= self.max_events)
+            code[w["ix"][alone]] = ALONE
+            keep = ~over & ~alone
+            if not keep.all():
+                w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
+                                self._take(first, keep))
+            if not w["ix"].size:
+                break
+            w, st, first, keep = self._step(w, st, first)
+            code[w["ix"][~keep]] = ALONE
+        metrics = self._metrics(out, out_first, code)
+        code[(code == DONE) & ~self._result_checks(metrics, out, out_first)] = ALONE
+        return metrics, code
+
+    def _step(self, w, st, first):
+        """One segment and one event of every live member: ``(w, st, first, keep)``, ``keep``
+        False where a member goes to the single solve."""
+        b, N, K = w["ix"].size, self.N, self.K
+        ix = w["ix"]
+        x0, v0 = w["x"], w["v"]
+        D0, W0 = x0 @ self.C.T - self.gap[ix], v0 @ self.C.T
+        S = lambda key: np.stack([s[key] for s in st], axis=1)   # noqa: E731
+        slope = S("s")
+        force = S("fa") + slope * (D0 - S("da"))
+        motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C)
+        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix)
+        omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
+        limit = self.horizon[ix] - w["t"]
+        with np.errstate(all="ignore"):
+            start = start_times(g, tol, omega, limit)
+            start = np.where(armed, start, np.nan)
+            late_now = armed & (start > 0) & (g.each_at(np.where(start > 0, start, 0.0)) <= 0)
+            tau, which, undecided = earliest(g, armed, start, limit)
+        keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
+        tau = np.where(keep, tau, 0.0)
+        x1, v1 = motion.state(tau)
+        keep &= np.all(np.isfinite(x1) & np.isfinite(v1), axis=1)
+        # the peaks of the segment, for the contacts whose first impact is ongoing
+        ongoing = _metrics.ongoing(first, np)
+        look = keep & ongoing.any(axis=1)
+        if look.any():
+            r = np.flatnonzero(look)
+            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r])
+            keep[r[unsure]] = False
+            F_pk = np.zeros((b, K))
+            a_pk = np.zeros((b, N))
+            F_pk[r], a_pk[r] = peaks[:, :K], peaks[:, K:]
+            first = _metrics.fold_peaks(first, F_pk, a_pk, ongoing & look[:, None], np)
+        w = dict(w, x=x1, v=v1, t=w["t"] + tau, nev=w["nev"] + 1)
+        # the law's transition, contact by contact
+        D, Wd = x1 @ self.C.T - self.gap[ix], v1 @ self.C.T
+        contact, kind = which // 3, which % 3
+        opens = np.zeros((b, K), bool)
+        closes = np.zeros((b, K), bool)
+        for k, law in enumerate(self.laws):
+            r = np.flatnonzero(keep & (contact == k))
+            if not r.size:
+                continue
+            old = {key: a[r] for key, a in st[k].items()}
+            with np.errstate(all="ignore"):
+                new = self._full(law.on_event(kind[r], D[r, k], Wd[r, k], old,
+                                              _subset(self.cp[k], ix[r]), np), r.size)
+            for key, a in new.items():
+                st[k][key][r] = a
+            opens[r, k] = (new["mode"] == MODE_OPEN) & (old["mode"] != MODE_OPEN)
+            closes[r, k] = (new["mode"] != MODE_OPEN) & (old["mode"] == MODE_OPEN)
+            keep[r[new["status"] != 0]] = False
+        first = _metrics.event_update(first, w["t"], v1, closes, opens, np)
+        # each impact (touch to separation) must be resolved by the clock (check_resolved)
+        t_now = w["t"][:, None]
+        keep &= ~np.any(opens & ~_resolved(w["since"], t_now), axis=1)
+        w["since"] = np.where(closes, t_now, np.where(opens, np.nan, w["since"]))
+        sep = opens.any(axis=1)
+        w["v_post"] = np.where(sep[:, None], v1, w["v_post"])
+        return w, st, first, keep
+
+    # ------------------------------------------------------------------ pieces
+    def _event_functions(self, motion, st, D0, W0, x0, v0, ix):
+        """The event functions ``(Sums (b, 3K), armed (b, 3K), tolerance at the start)`` in the
+        model's event order (contact ``k``: lower end, upper end, closing rate)."""
+        b, K = D0.shape
+        P = motion.P
+        dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
+        length = self.v_scale[ix] * self.t_scale[ix]
+        tol_d = START_TOL * length + 16 * _EPS * np.max(np.abs(x0), axis=1)
+        tol_w = START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+        c, alpha, gamma, armed, tol = [], [], [], [], []
+        for k, s in enumerate(st):
+            for kind in range(3):
+                if kind == 0:      # the piece's lower end reached going down: (D - da) + wl
+                    c.append((D0[:, k] - s["da"]) + s["wl"])
+                    alpha.append(dev.alpha[:, k]), gamma.append(dev.gamma[:, k])
+                    armed.append(s["lo"] > -1e299)
+                elif kind == 1:    # its upper end reached going up: hi - D
+                    c.append(s["hi"] - D0[:, k])
+                    alpha.append(-dev.alpha[:, k]), gamma.append(-dev.gamma[:, k])
+                    armed.append(s["hi"] < 1e299)
+                else:              # closing rate through zero while loading
+                    c.append(W0[:, k])
+                    alpha.append(rate.alpha[:, k]), gamma.append(rate.gamma[:, k])
+                    armed.append(s["vm"] != 0)
+                tol.append(tol_w if kind == 2 else tol_d)
+        g = Sums(np.stack(c, axis=1), np.stack(alpha, axis=1), np.stack(gamma, axis=1),
+                 motion.kappa, motion.w)
+        return g, np.stack(armed, axis=1), np.stack(tol, axis=1)
+
+    def _peaks(self, motion, slope, force, ix, r, tau):
+        """Each contact's largest force and each vehicle's acceleration of largest magnitude
+        (signed) over ``[0, τ]`` of members ``r``: ``(peaks (m, K + N), undecided (m,))`` (as
+        :meth:`._solve._Chain._peaks`)."""
+        P = motion.P[r]
+        rows = slope[r][:, :, None] * P                                    # (m, K, N)
+        a, bq = motion.a[r][:, None, :], motion.b[r][:, None, :]
+        fa, fg = rows * a, rows * bq
+        inc = -self.C.T
+        mass = self.m[ix[r]][:, :, None]
+        c = np.concatenate([force[r], (force[r] @ inc.T) / mass[:, :, 0]], axis=1)
+        alpha = np.concatenate([fa, np.einsum("nk,mkj->mnj", inc, fa) / mass], axis=1)
+        gamma = np.concatenate([fg, np.einsum("nk,mkj->mnj", inc, fg) / mass], axis=1)
+        series = Sums(c, alpha, gamma, motion.kappa[r], motion.w[r])
+        largest = np.arange(self.K + self.N) < self.K
+        return extremes(series, tau, largest)
+
+    def _result_checks(self, metrics, out, first) -> np.ndarray:
+        """(n,): what ``Result.build`` checks besides the impacts (the whole crash resolved by
+        the clock, every metric finite where a number is expected); a member that fails them
+        is solved alone, for the single solve's own message."""
+        ok = _resolved(np.nanmin(np.where(np.isnan(first["contact_time"]), np.inf,
+                                          first["contact_time"]), axis=1), out["t"])
+        ok |= np.all(np.isnan(first["contact_time"]), axis=1)
+        for name in METRICS:
+            a = metrics[name].reshape(self.n, -1)
+            allowed = np.isnan(a) if name in _MAY_BE_NAN else np.zeros(a.shape, bool)
+            ok &= np.all(np.isfinite(a) | allowed, axis=1)
+        return ok
+
+    def _over(self, w, st) -> np.ndarray:
+        """(b,): every contact open and none closing again before the horizon
+        (:meth:`HybridModel.contacts_apart`)."""
+        ix = w["ix"]
+        D, W = w["x"] @ self.C.T - self.gap[ix], w["v"] @ self.C.T
+        modes = np.stack([s["mode"] for s in st], axis=1)
+        gaps = np.stack([law.closing_gap(D[:, k], s) for k, (law, s) in
+                         enumerate(zip(self.laws, st))], axis=1)
+        late = gaps > W * (self.horizon[ix] - w["t"])[:, None]
+        return np.all(modes == 0, axis=1) & np.all((W <= OVER_TOL * self.v_scale[ix][:, None])
+                                                   | late, axis=1)
+
+    def _metrics(self, out, first, code):
+        """:func:`lsc.metrics.metrics` of every member (NaN where not :data:`DONE`)."""
+        records = {key: out[key] for key in ("dmax", "dperm", "ec", "er")}
+        with np.errstate(all="ignore"):
+            res = _metrics.metrics(first, records, out["v_post"], np.full(self.n, self.g),
+                                   np.full((self.n, self.K), np.nan), out["t"], out["v"], np)
+        ok = code == DONE
+        return {k: np.where(ok.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, np.nan)
+                for k, a in res.items()}
+
+    @staticmethod
+    def _full(st: dict, n: int) -> dict:
+        return {k: np.array(np.broadcast_to(a, (n,))) for k, a in st.items()}
+
+    @staticmethod
+    def _take(d: dict, keep) -> dict:
+        return {k: a[keep] for k, a in d.items()}

@@ -1,0 +1,168 @@
+"""The closed-form motion of many chains at once (the batch's :mod:`._modes`).
+
+Every array has a leading member axis ``b``. A segment of each member is solved in the modes of
+``M^{-1/2} Cᵀ diag(s) C M^{-1/2}`` exactly as :func:`._modes._modes` does for one chain (the
+rigid modes built exactly, one translation per group of vehicles joined by loaded contacts; the
+others from ``np.linalg.eigh`` on the stacked matrices, made orthogonal to them), the members
+grouped by which contacts carry a slope. An event function, a force or an acceleration is a
+:class:`Sums`: ``g(τ) = c + Σ_j α_j S_j(τ) + γ_j C_j(τ)`` (``S = sin ωτ/ω``, ``C = (1 - cos
+ωτ)/ω²``, or ``τ, τ²/2`` for a rigid mode), for a batch of functions ``(b, F)`` at once. Only
+slopes >= 0 occur (straight loading and unloading lines), so no mode is hyperbolic.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["BatchMotion", "Sums", "basis"]
+
+
+def basis(w, tau):
+    """``S, C`` (..., n) at times ``tau`` (...) [s] for the modes of angular frequency ``w``
+    (..., n) [1/s] (0: rigid), from half angles as :meth:`._modes.Modes.basis` computes them."""
+    tau = np.asarray(tau, float)[..., None]
+    rigid = w == 0
+    ws = np.where(rigid, 1.0, w)
+    h = (0.5 * ws) * tau
+    sw = np.sin(h) / ws
+    S = np.where(rigid, tau, 2.0 * sw * np.cos(h))
+    C = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
+    return S, C
+
+
+@dataclass
+class Sums:
+    """Functions ``g(τ) = c + Σ α S(τ) + γ C(τ)``: ``c`` (b, F), ``alpha, gamma`` (b, F, n) on
+    the modes ``kappa, w`` (b, n) of their member."""
+
+    c: np.ndarray
+    alpha: np.ndarray
+    gamma: np.ndarray
+    kappa: np.ndarray
+    w: np.ndarray
+
+    def derivative(self) -> "Sums":
+        """``g'`` (``S' = 1 - κ C``, ``C' = S``)."""
+        return Sums(np.sum(self.alpha, axis=-1), self.gamma, -self.kappa[:, None] * self.alpha,
+                    self.kappa, self.w)
+
+    def at(self, tau):
+        """``g`` (b, F, T) at times ``tau`` (b, T) of each member."""
+        return self.on(*self.basis(tau))
+
+    def basis(self, tau):
+        """``S, C`` (b, T, n) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
+        return basis(self.w[:, None, :], tau)
+
+    def on(self, S, C):
+        """``g`` (b, F, T) on the basis ``S, C`` (b, T, n) of :meth:`basis`."""
+        return (self.c[:, :, None] + np.matmul(self.alpha, np.swapaxes(S, 1, 2))
+                + np.matmul(self.gamma, np.swapaxes(C, 1, 2)))
+
+    def each_at(self, tau):
+        """``g`` (b, F) at one time per function ``tau`` (b, F)."""
+        S, C = basis(self.w[:, None, :], tau)
+        return self.c + np.sum(self.alpha * S + self.gamma * C, axis=-1)
+
+    def curvature_bound(self, T=None):
+        """Bounds (b, F) on ``|g''|`` over ``[0, T]`` (:meth:`._modes.Modes.curvature_bounds`;
+        ``T`` (b, F) or None: over any interval, ``|S| <= 1/ω``)."""
+        w = self.w[:, None, :]
+        inv = 1.0 / np.where(w > 0, w, 1.0)
+        if T is None:
+            s_max = np.where(w > 0, inv, 0.0)   # (a rigid mode's κ α term is 0)
+        else:
+            s_max = np.where(w > 0, np.minimum(np.asarray(T)[..., None], inv),
+                             np.asarray(T)[..., None])
+        k = self.kappa[:, None, :]
+        term = np.where(k != 0, np.abs(self.alpha * k) * s_max, 0.0)
+        return np.sum(term, axis=-1) + np.sum(np.abs(self.gamma), axis=-1)
+
+    def take(self, rows, cols=None) -> "Sums":
+        """The functions of members ``rows`` (and, per member, ``cols``)."""
+        if cols is None:
+            return Sums(self.c[rows], self.alpha[rows], self.gamma[rows], self.kappa[rows],
+                        self.w[rows])
+        return Sums(self.c[rows, cols][:, None], self.alpha[rows, cols][:, None],
+                    self.gamma[rows, cols][:, None], self.kappa[rows], self.w[rows])
+
+
+def _groups(slope_on: np.ndarray) -> np.ndarray:
+    """(N,) the group of each vehicle (joined by contacts with a slope, ``slope_on`` (K,))."""
+    return np.concatenate([[0], np.cumsum(~slope_on)])
+
+
+class BatchMotion:
+    """The closed-form motion of one segment of every member.
+
+    Parameters: ``m`` (b, N) [mass]; ``x0, v0`` (b, N) [length, velocity]; ``slope, force``
+    (b, K) each contact's active slope [force/length] (0: open) and force at the start
+    [force]; ``C`` (K, N) the deformation map (:func:`._modes.deformation_map`).
+    """
+
+    def __init__(self, m, x0, v0, slope, force, C):
+        self.x0, self.v0 = x0, v0
+        b, N = m.shape
+        root = np.sqrt(m)
+        kappa = np.zeros((b, N))
+        Q = np.zeros((b, N, N))
+        on = slope != 0
+        code = on @ (1 << np.arange(on.shape[1]))
+        for pattern in np.unique(code):
+            rows = np.flatnonzero(code == pattern)
+            kappa[rows], Q[rows] = _modes(C, slope[rows], root[rows], on[rows[0]])
+        self.kappa = kappa
+        self.w = np.sqrt(kappa)
+        self.T = Q / root[:, :, None]                                    # Δx = T q
+        f0 = force @ -C                                                  # (b, N)
+        self.a = np.einsum("bji,bj->bi", Q, root * v0)                   # q'(0)
+        self.b = np.einsum("bji,bj->bi", Q, f0 / root)                   # q''(0)
+        self.P = np.einsum("kn,bnj->bkj", C, self.T)                     # ΔD = P q
+        self.fastest = np.max(self.w, axis=1)
+        self.slowest = np.min(np.where(self.w > 0, self.w, np.inf), axis=1)
+
+    def state(self, tau):
+        """Positions and velocities (b, N) each at its member's time ``tau`` (b,)."""
+        S, C = basis(self.w, tau)
+        q = S * self.a + C * self.b
+        dq = S * self.b - self.kappa * C * self.a
+        return (self.x0 + np.einsum("bij,bj->bi", self.T, q),
+                self.v0 + np.einsum("bij,bj->bi", self.T, dq))
+
+    def rows(self, M) -> Sums:
+        """``M q(τ)`` for rows ``M`` (b, F, N) of the modal coordinates, with ``c = 0``."""
+        return Sums(np.zeros(M.shape[:2]), M * self.a[:, None, :], M * self.b[:, None, :],
+                    self.kappa, self.w)
+
+    def rates(self, M) -> Sums:
+        """``M q'(τ) - M q'(0)`` for rows ``M`` (b, F, N), with ``c = 0``: ``q' - q'(0) =
+        a (S' - 1) + b S``, written as the series ``Σ b S - κ a C``."""
+        return Sums(np.zeros(M.shape[:2]), M * self.b[:, None, :],
+                    -self.kappa[:, None, :] * M * self.a[:, None, :], self.kappa, self.w)
+
+
+def _modes(C, slope, root, on):
+    """Eigenvalues (b, N) and orthonormal eigenvectors (b, N, N) of the members ``slope``
+    (b, K), ``root`` (b, N) that share the pattern ``on`` (K,) of loaded contacts, with the same
+    arithmetic as :func:`._modes._modes` for one chain."""
+    b, N = root.shape
+    group = _groups(on)
+    n_rigid = int(group[-1]) + 1
+    R = np.zeros((b, N, n_rigid))
+    R[:, np.arange(N), group] = root
+    R /= np.linalg.norm(R, axis=1, keepdims=True)
+    if n_rigid == N:
+        return np.zeros((b, N)), R
+    Cr = C[None, :, :] / root[:, None, :]
+    A = np.swapaxes(Cr, 1, 2) @ (slope[:, :, None] * Cr)
+    A = 0.5 * (A + np.swapaxes(A, 1, 2))
+    lam, V = np.linalg.eigh(A)
+    elastic = np.argsort(np.abs(lam), axis=1)[:, n_rigid:]
+    E = np.take_along_axis(V, elastic[:, None, :], axis=2)
+    E = E - R @ (np.swapaxes(R, 1, 2) @ E)
+    E, _ = np.linalg.qr(E)
+    lam_e = np.einsum("bij,bij->bj", E, A @ E)
+    return (np.concatenate([np.zeros((b, n_rigid)), lam_e], axis=1),
+            np.concatenate([R, E], axis=2))

@@ -1,0 +1,340 @@
+"""Zeros and extrema of the event functions of many chains at once, with the guarantee of
+:mod:`._roots`.
+
+Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on windows of
+:data:`WINDOW` steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode), every member on its own
+window, all members in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
+from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
+both exceed that holds no zero; the first interval of a member that does not is either a sign
+change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
+once) or is sampled again :data:`WINDOW` times finer, until narrower than :data:`._roots.TOUCH`
+of its time, where it is a touch (as the single solve decides). A member whose intervals the
+bound still cannot clear after :data:`LEVELS` finer samplings is handed back as *undecided*:
+the caller solves it alone, with :mod:`._roots`' own search.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._batch_modes import Sums, basis
+from ._roots import PER_RADIAN, TOUCH
+
+__all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
+
+#: Sample steps per window of the batch search.
+WINDOW = 16
+#: How many times at most an interval the bound cannot clear is sampled again, finer (16^13:
+#: below :data:`._roots.TOUCH` of any window, where it is a touch).
+LEVELS = 13
+#: Most windows one segment of a member is searched over before it is handed back.
+MAX_WINDOWS = 256
+_EPS = float(np.finfo(float).eps)
+
+
+def start_times(g: Sums, tol, omega, limit):
+    """Where to start searching each function (b, F) [s] (:func:`._solve._start` for arrays):
+    0 normally; NaN where it stays on its surface all along the segment; where it starts within
+    ``tol`` (b, F) of zero, judged by its first derivative clear of ``tol ω^p`` (``omega``
+    (b,)): 0 going down (it fires now where ``g(0) <= 0``), going up the half of the interval
+    over which its Taylor polynomial and a bound on the next derivative keep it positive."""
+    c = g.c
+    out = np.zeros(c.shape)
+    on = np.abs(c) <= tol
+    if not on.any():
+        return out
+    rows, cols = np.nonzero(on)
+    h = Sums(c[rows, cols][:, None], g.alpha[rows, cols][:, None], g.gamma[rows, cols][:, None],
+             g.kappa[rows], g.w[rows])
+    order = 2 * g.alpha.shape[-1] + 1
+    om = omega[rows]
+    thr = tol[rows, cols]
+    T = np.minimum(limit[rows], 1.0 / om)
+    s = np.full(rows.size, np.nan)
+    todo = np.ones(rows.size, bool)
+    lower = h
+    for p in range(1, order + 1):
+        d = lower.derivative()
+        dp = d.c[:, 0]
+        hit = todo & (np.abs(dp) > thr * om ** p)
+        if hit.any():
+            B = lower.curvature_bound(T[:, None])[:, 0]
+            clear = np.where(B > 0, (p + 1) * dp / np.where(B > 0, B, 1.0), T)
+            s = np.where(hit, np.where(dp < 0, 0.0, np.minimum(0.5 * clear, T)), s)
+            todo &= ~hit
+        if not todo.any():
+            break
+        lower = d
+    out[rows, cols] = s
+    return out
+
+
+def earliest(g: Sums, armed, start, limit):
+    """The first downward zero of each member's armed functions (b, F) searched from ``start``
+    (b, F) up to ``limit`` (b,) [s]: ``(τ (b,), function (b,) or -1, undecided (b,) bool)``; -1
+    where none is found before ``limit`` (or, with ``undecided``, where the search gave up)."""
+    b, F = g.c.shape
+    tau = np.full(b, np.nan)
+    which = np.full(b, -1)
+    undecided = np.zeros(b, bool)
+    search = armed & ~np.isnan(start)
+    start = np.where(search, start, np.inf)
+    g_start = np.where(search, g.each_at(np.where(search, start, 0.0)), np.inf)
+    # a function at or below zero where its search starts fires there
+    now = search & (g_start <= 0)
+    if now.any():
+        t_now = np.where(now, start, np.inf)
+        j = np.argmin(t_now, axis=1)
+        got = now.any(axis=1)
+        tau[got], which[got] = t_now[got, j[got]], j[got]
+    B = g.curvature_bound()
+    rigid = g.kappa.max(axis=1) == 0
+    quad = rigid & ~now.any(axis=1)
+    if quad.any():
+        tau[quad], which[quad] = _quadratic(g.take(quad), search[quad], start[quad], limit[quad])
+    live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
+    step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
+    lo = np.zeros(b)
+    for k in range(MAX_WINDOWS):
+        if not live.size:
+            break
+        # (windows that double, up to 64 times the first: a member whose event is far
+        # away takes few of them)
+        count = WINDOW << min(k, 6)
+        t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
+                                                   g_start[live], lo[live], step[live],
+                                                   limit[live], search[live], count)
+        got = j_found >= 0
+        tau[live[got]], which[live[got]] = t_found[got], j_found[got]
+        undecided[live[stuck]] = True
+        lo[live] = cleared
+        live = live[~got & ~stuck & (cleared < limit[live])]
+    undecided[live] = True
+    return tau, which, undecided
+
+
+def _window(g, B, start, g_start, lo, step, limit, search, count):
+    """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
+    search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's bound cannot clear is
+    sampled again :data:`WINDOW` times finer (up to :data:`LEVELS` times)."""
+    n = g.c.shape[0]
+    found_t = np.full(n, np.nan)
+    found_j = np.full(n, -1)
+    stuck = np.zeros(n, bool)
+    a, h, end = lo, step, np.minimum(lo + count * step, limit)
+    cleared = end.copy()
+    todo = np.arange(n)
+    steps = count
+    for level in range(LEVELS + 1):
+        gg = g.take(todo)
+        m = todo.size
+        tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
+        tt[:, -1] = end
+        vals = gg.at(tt)                                              # (m, F, steps + 1)
+        s0 = start[todo][:, :, None]
+        t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
+        left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
+                        vals[..., :-1])
+        right = np.where(t1 <= s0, np.inf, vals[..., 1:])
+        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
+        ok = search[todo][:, :, None]
+        cross = ok & (right <= 0)
+        unclear = ok & ~cross & (np.minimum(left, right) <= margin)
+        hit = cross | unclear
+        first = np.where(hit.any(axis=2), np.argmax(hit, axis=2), steps)    # (m, F)
+        i = np.min(first, axis=1)                                           # (m,)
+        none = i == steps
+        ic = np.minimum(i, steps - 1)
+        at = (first == i[:, None]) & ~none[:, None]
+        rows = np.arange(m)
+        cr = at & cross[rows, :, ic]
+        deeper = (at & unclear[rows, :, ic]).any(axis=1)
+        brack = cr.any(axis=1) & ~deeper
+        # an interval narrower than TOUCH of its time that the bound cannot clear is a
+        # tangency, not a crossing (as :func:`._roots._hunt` decides): the search goes on
+        # after it
+        touch = deeper & (tt[rows, ic + 1] - tt[rows, ic]
+                          <= TOUCH * np.maximum(tt[:, -1], 1e-300))
+        cleared[todo[touch]] = tt[touch, ic[touch] + 1]
+        deeper &= ~touch
+        if brack.any():
+            r = np.flatnonzero(brack)
+            rr, jj = np.nonzero(cr[r])
+            mem = r[rr]
+            ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
+            root = refine(gg.take(mem, jj), ta, tt[mem, ic[mem] + 1], left[mem, jj, ic[mem]],
+                          right[mem, jj, ic[mem]])
+            best = np.full(m, np.inf)
+            np.minimum.at(best, mem, root)
+            jbest = np.full(m, F_BIG)
+            np.minimum.at(jbest, mem, np.where(root == best[mem], jj, F_BIG))
+            found_t[todo[r]], found_j[todo[r]] = best[r], jbest[r]
+        if level == LEVELS:
+            stuck[todo[deeper]] = True
+            break
+        sel = np.flatnonzero(deeper)
+        if not sel.size:
+            break
+        a, end = tt[sel, ic[sel]], tt[sel, ic[sel] + 1]
+        cleared[todo[sel]] = end     # (a finer window covers the unclear interval only)
+        steps = WINDOW
+        h = (end - a) / steps
+        todo = todo[sel]
+    return found_t, found_j, cleared, stuck
+
+
+F_BIG = np.iinfo(np.int64).max
+
+
+def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
+    """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
+    changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
+    method on the closed-form derivative, kept inside the bracket (a step that leaves it, or
+    does not halve it, bisects), until the step is a few ulps of the time (or of the bracket's
+    width, for a zero at the start)."""
+    sign = np.where(np.asarray(fa) > 0, 1.0, -1.0)
+    a, b = np.array(a, float), np.array(b, float)
+    floor = _EPS * (b - a)
+    x = np.where(np.abs(fa) < np.abs(fb), a, b)
+    w = g.w[:, 0, :] if g.w.ndim == 3 else g.w
+    alpha, gamma, kappa = g.alpha[:, 0], g.gamma[:, 0], g.kappa
+    c = g.c[:, 0]
+    live = np.flatnonzero((np.asarray(fb) != 0) & (np.asarray(fa) != 0))
+    x[np.asarray(fa) == 0] = a[np.asarray(fa) == 0]
+    for _ in range(iterations):
+        if not live.size:
+            break
+        xl = x[live]
+        S, C = basis(w[live], xl)
+        al, ga = alpha[live], gamma[live]
+        f = sign[live] * (c[live] + np.sum(al * S + ga * C, axis=1))
+        df = sign[live] * np.sum(al + ga * S - kappa[live] * al * C, axis=1)
+        lo, hi = a[live], b[live]
+        pos = f > 0     # (the zero lies above x where the function, made positive first, is)
+        lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
+        with np.errstate(all="ignore"):
+            new = xl - f / df
+        tol = 4 * _EPS * np.abs(xl) + floor[live]
+        done = (f == 0) | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
+        inside = (new >= lo) & (new <= hi) & np.isfinite(new)
+        new = np.where(inside, new, 0.5 * (lo + hi))
+        a[live], b[live] = lo, hi
+        x[live] = np.where(f == 0, xl, new)
+        live = live[~done]
+    return x
+
+
+def _quadratic(g: Sums, search, start, limit):
+    """``(τ, function)`` of members whose modes are all rigid: each function is ``c + p τ +
+    r τ²/2``, its first downward root after its start in closed form (as
+    :func:`._roots._quadratic_crossing`; a double root is a touch)."""
+    c = g.c
+    p = np.sum(g.alpha, axis=-1)
+    r = np.sum(g.gamma, axis=-1)
+    with np.errstate(all="ignore"):
+        disc = p * p - 2.0 * r * c
+        q = -0.5 * (p + np.copysign(np.sqrt(np.maximum(disc, 0.0)), p))
+        lin = np.where(p < 0, -c / p, np.nan)
+        r1 = np.where(r == 0, lin, np.where(disc > 0, 2.0 * q / r, np.nan))
+        r2 = np.where((r != 0) & (disc > 0) & (q != 0), c / q, np.nan)
+    best = np.full(c.shape, np.inf)
+    for root in (r1, r2):
+        good = (root > start) & (root <= limit[:, None]) & (p + r * root < 0) & search
+        best = np.where(good & (root < best), root, best)
+    j = np.argmin(best, axis=1)
+    t = best[np.arange(c.shape[0]), j]
+    return np.where(np.isfinite(t), t, np.nan), np.where(np.isfinite(t), j, -1)
+
+
+#: An interval where a function's derivative may touch zero between samples of one sign is
+#: left at its samples where the largest excess of the function over them that this allows
+#: is below this fraction of the function's size there (:data:`._roots.FLAT`, relaxed from
+#: 1e-15 to what :data:`._roots.DEPTH` bisections leave in the single solve).
+FLAT = 1e-14
+#: How many times at most :func:`extremes` samples an interval again, finer.
+PEAK_LEVELS = 6
+
+
+def extremes(g: Sums, T, largest):
+    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest value (where
+    ``largest`` (F,)) or its value of largest magnitude, signed (elsewhere): ``(peaks (b, F),
+    undecided (b,))``. The values are taken at every sample, at both ends and at every zero
+    of the derivative, whose sign changes are found and refined as :func:`earliest` finds
+    zeros. Where the derivative may touch zero between two samples of one sign (the bound on
+    the third derivative cannot clear it), the function can exceed its samples there by at
+    most ``w (B w²/8 - min |g'|)`` (``w`` the width): such an interval is cleared where that is
+    below :data:`FLAT` of the function's size, or where the derivative is provably monotone on
+    it (a bound on the next derivative), else sampled again :data:`WINDOW` times finer, up to
+    :data:`PEAK_LEVELS` times; a member with an interval still not cleared is *undecided* (the
+    caller solves it alone)."""
+    b, F = g.c.shape
+    d = g.derivative()
+    dd = d.derivative()
+    Bd, Bdd = d.curvature_bound(), dd.curvature_bound()
+    w_max = np.max(g.w, axis=1)
+    step = np.where(w_max > 0, 1.0 / (PER_RADIAN * np.where(w_max > 0, w_max, 1.0)),
+                    np.maximum(T, 1e-300) / 2)
+    top = np.full((b, F), -np.inf)
+    bottom = np.full((b, F), np.inf)
+    undecided = np.zeros(b, bool)
+    late = []
+    # the intervals still to sample: member, start, end, step, level (0: the end is T)
+    r = np.arange(b)
+    lo, hi, h, level = np.zeros(b), np.asarray(T, float), step, np.zeros(b, int)
+    for _ in range(MAX_WINDOWS * 4):
+        if not r.size:
+            break
+        end = np.where(level == 0, np.minimum(lo + WINDOW * h, hi), hi)
+        tt = np.minimum(lo[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
+        tt[:, -1] = end
+        gl, dl, ddl = g.take(r), d.take(r), dd.take(r)
+        S, C = gl.basis(tt)
+        vals, dv = gl.on(S, C), dl.on(S, C)
+        np.fmax.at(top, r, np.max(vals, axis=2))
+        np.fmin.at(bottom, r, np.min(vals, axis=2))
+        a, c = dv[..., :-1], dv[..., 1:]
+        w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
+        margin = Bd[r][:, :, None] * w ** 2 / 8.0
+        change = (a * c <= 0) & (a != c)
+        if change.any():
+            # (a zero of g' whose value cannot beat the peak so far need not be refined:
+            # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
+            reach = (np.minimum(np.abs(vals[..., :-1]), np.abs(vals[..., 1:]))
+                     + w * (np.maximum(np.abs(a), np.abs(c)) + margin))
+            peak = np.where(largest[None, :], top[r],
+                            np.maximum(np.abs(top[r]), np.abs(bottom[r])))
+            beaten = reach < peak[:, :, None]
+            m, j, i = np.nonzero(change & ~beaten)
+            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
+            at = gl.take(m, j).each_at(roots[:, None])[:, 0]
+            np.fmax.at(top, (r[m], j), at)
+            np.fmin.at(bottom, (r[m], j), at)
+        low = np.minimum(np.abs(a), np.abs(c))
+        grazing = ~change & (low <= margin)
+        new = []
+        if grazing.any():
+            size = np.maximum(np.abs(top[r]), np.abs(bottom[r]))[:, :, None]
+            excess = w * (margin - low)
+            ddv = ddl.on(S, C)
+            e, f = ddv[..., :-1], ddv[..., 1:]
+            monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
+                                      > Bdd[r][:, :, None] * w ** 2 / 8.0)
+            bad = grazing & ~monotone & (excess > FLAT * size)                # (m, F, W)
+            deep = bad & (level >= PEAK_LEVELS)[:, None, None]
+            if deep.any():   # (judged at the end, against the function's size on [0, T])
+                m, j, i = np.nonzero(deep)
+                late.append((r[m], j, excess[m, j, i]))
+            m, i = np.nonzero((bad & ~deep).any(axis=1))
+            new.append((r[m], tt[m, i], tt[m, i + 1], (tt[m, i + 1] - tt[m, i]) / WINDOW,
+                        level[m] + 1))
+        go = (level == 0) & (end < hi)
+        new.append((r[go], end[go], hi[go], h[go], level[go]))
+        r, lo, hi, h, level = (np.concatenate(x) for x in zip(*new))
+        keep = ~undecided[r]
+        r, lo, hi, h, level = r[keep], lo[keep], hi[keep], h[keep], level[keep]
+    undecided[r] = True
+    size = np.maximum(np.abs(top), np.abs(bottom))
+    for m, j, excess in late:
+        undecided[m[excess > FLAT * size[m, j]]] = True
+    peaks = np.where(largest[None, :] | (np.abs(top) >= np.abs(bottom)), top, bottom)
+    return peaks, undecided
