@@ -283,6 +283,20 @@ def test_fit_recovers_the_synthetic_tests_stiffness_and_restitution(main, capsys
     assert sorted(f.name for f in out.iterdir()) == ["fit.json", "fitted.toml"]
 
 
+def test_fit_jac_option_is_passed_on_and_refused_where_it_does_not_apply(main, capsys):
+    """``--jac 3-point`` reaches the fit (its summary says so); ``--jac autodiff`` on the
+    closed form is the fit's own SceneError, exit 2 with no traceback."""
+    from lsc import data
+    test = str(data.path("default").parent / "synthetic_test.csv")
+    base = ["fit", "default", test, "--param", "contacts.0.unloading.restitution",
+            "--initial", "contacts.0.unloading.restitution=0.3"]
+    assert main([*base, "--jac", "3-point"]) == 0
+    assert "Jacobian: finite differences (3-point) of lsc.solve" in capsys.readouterr().out
+    assert main([*base, "--jac", "autodiff"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("lsc: error: jac: ") and "autodiff needs method='diffrax'" in err
+
+
 def test_fit_refuses_malformed_initial_values(main, capsys):
     assert main(["fit", "default", "x.csv", "--param", "vehicles.0.speed",
                  "--initial", "vehicles.0.speed"]) == 2

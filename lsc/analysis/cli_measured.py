@@ -120,6 +120,9 @@ def add_fit(sub) -> None:
     p.add_argument("--bounds", action="append", default=[], metavar="PATH=LO:HI",
                    help="bounds of a parameter in the scene's units (repeatable)")
     p.add_argument("--method", choices=METHODS, default=None, help="backend (default: the scene's)")
+    p.add_argument("--jac", choices=("autodiff", "2-point", "3-point"), default=None,
+                   help="how the Jacobian is taken (default: autodiff through the diffrax solve "
+                        "with --method diffrax, forward differences otherwise)")
     p.add_argument("--errors", choices=("autocorrelated", "independent"), default="autocorrelated",
                    help="standard errors allowing for residuals correlated in time (default) or "
                         "assuming independent ones")
@@ -140,7 +143,7 @@ def cmd_fit(args) -> int:
     files = [out / f for f in FIT_FILES] if out else []
     refuse_existing(files, args.overwrite)
     result = fit(scene, _read_test(args), args.param, initial=initial or None, bounds=bounds or None,
-                 method=args.method, errors=args.errors)
+                 method=args.method, jac=args.jac, errors=args.errors)
     print(result.summary())
     if out:
         writers = {out / "fitted.toml": lambda f: result.to_toml(f, overwrite=True),
