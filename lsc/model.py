@@ -22,9 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact import STATUS, make_law
+from .contact import MODE_OPEN, STATUS, make_law
 from .effects import BrakeEffect, FailureEffect
 from .errors import SimulationError
+from .locking import LockingMixin, LockPart, cluster_forces, clusters
 from .moving_frame import Frame
 
 __all__ = ["HybridModel", "Frame", "OVER_TOL", "MAX_ANGLE", "EVENT_UNITS"]
@@ -41,7 +42,8 @@ MAX_ANGLE = 0.5
 #: here is a length (and a Kelvin law's ``separate``, ``k D + c Ḋ``, is a force).
 EVENT_UNITS = {"vmax": "velocity", "turn": "velocity", "recompress": "velocity",
                "stop": "velocity", "break_forward": "force", "break_backward": "force",
-               "failure": "force"}
+               "failure": "force", "unlock_zero": "force", "unlock_line": "force",
+               "settle": "velocity"}
 
 
 def _event_unit(part, kind: str) -> str:
@@ -51,7 +53,7 @@ def _event_unit(part, kind: str) -> str:
     return EVENT_UNITS.get(kind, "length")
 
 
-class HybridModel:
+class HybridModel(LockingMixin):
     """The hybrid system of a :class:`~lsc.scene.Scene`.
 
     Attributes
@@ -69,7 +71,7 @@ class HybridModel:
         The contacts with a work-integral state ``W`` (state index ``2N + position``).
     """
 
-    def __init__(self, scene):
+    def __init__(self, scene, locking: bool = False):
         self.scene = scene
         self.N = N = scene.n_vehicles
         self.K = len(scene.contacts)
@@ -83,7 +85,10 @@ class HybridModel:
         # force alone is an effect watching the contact force.
         self.failures = [FailureEffect(k, c.failure) for k, c in enumerate(scene.contacts)
                          if c.failure is not None and c.failure.post_failure is None]
-        self.parts = [*self.laws, *self.brakes, *self.failures]
+        #: the locks of a chain's contacts (:mod:`lsc.locking`; only with ``locking`` and where
+        #: :meth:`can_lock`)
+        self.locks = [LockPart(k) for k in range(self.K)] if locking and self.can_lock() else []
+        self.parts = [*self.laws, *self.brakes, *self.failures, *self.locks]
         self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
         self._work_idx = np.asarray(self.work, dtype=int)
         # incidence (N, K): contact k pushes vehicle k back and vehicle k+1 forward
@@ -116,7 +121,7 @@ class HybridModel:
         out = set()
         for law in self.laws:
             out |= law.features()
-        out |= {part.feature for part in self.parts[self.K:]}
+        out |= {part.feature for part in (*self.brakes, *self.failures)}
         if np.any(np.asarray(self.params["gap"], float) > 0):
             out.add("gap:open")
         return frozenset(out)
@@ -147,11 +152,22 @@ class HybridModel:
         disc += [b.init(y0[self.N + b.i], net[b.i], p["m"][b.i], p["brakes"][j], xp)
                  for j, b in enumerate(self.brakes)]
         disc += [f.init(F[f.k], p["failures"][j], xp) for j, f in enumerate(self.failures)]
+        disc += [lock.init() for lock in self.locks]
         return y0, disc
 
     # ------------------------------------------------------------------ smooth pieces
     def forces(self, y, disc, p, xp=np):
-        """Contact forces (K, ...) [force] in the frozen discrete state."""
+        """Contact forces (K, ...) [force] in the frozen discrete state (a locked contact's from
+        its cluster's motion, :func:`lsc.locking.cluster_forces`)."""
+        F = self._law_forces(y, disc, p, xp)
+        locked = self.locked(disc)
+        if not locked:
+            return F
+        rows, _ = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
+        return xp.asarray(rows)
+
+    def _law_forces(self, y, disc, p, xp=np):
+        """The contact laws' forces (K, ...) [force] (0 for a locked contact)."""
         D, Dd = self.deformation(y, p, xp)
         # (asarray of the list stacks it, as xp.stack would, at a tenth of the cost on NumPy)
         return xp.asarray([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
@@ -168,6 +184,13 @@ class HybridModel:
         net = self.net_forces(F, xp)
         m = p["m"].reshape((-1,) + (1,) * (net.ndim - 1))
         a = net / m
+        locked = self.locked(disc)
+        if locked:   # (each vehicle of a cluster at the cluster's one acceleration, exactly)
+            _, accels = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
+            acc = [a[i] for i in range(self.N)]
+            for first, last, shared in accels:
+                acc[first:last + 1] = [shared] * (last + 1 - first)
+            a = xp.asarray(acc)
         if self.brakes:
             acc = [a[i] for i in range(self.N)]
             off = self.K
@@ -197,7 +220,7 @@ class HybridModel:
     def _effect_events(self, y, disc, p, xp):
         """The event functions of the brakes and failures (a list)."""
         vals = []
-        if self.brakes or self.failures:
+        if self.brakes or self.failures or self.locks:
             F, net, _ = self.accelerations(y, disc, p, xp)
             off = self.K
             for j, b in enumerate(self.brakes):
@@ -206,6 +229,11 @@ class HybridModel:
             off += len(self.brakes)
             for j, f in enumerate(self.failures):
                 vals.extend(f.events(F[f.k], disc[off + j], p["failures"][j]))
+            if self.locks:
+                _, Dd = self.deformation(y, p, xp)
+                off += len(self.failures)
+                for j, lock in enumerate(self.locks):
+                    vals.extend(lock.events(F[lock.k], Dd[lock.k], disc[off + j]))
         return vals
 
     def event_pieces(self, t, y, disc, p, xp=np):
@@ -243,9 +271,17 @@ class HybridModel:
         return y[2 * self.N + self.work.index(k)] if k in self.work else 0.0
 
     def apply_event(self, i: int, t, y, disc, p, xp=np):
-        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged."""
+        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged, but for
+        the locks (:mod:`lsc.locking`), which lock, watch or release as it makes them."""
+        new = self._transition(i, t, y, disc, p, xp)
+        return self._relock(i, y, disc, new, p) if self.locks else new
+
+    def _transition(self, i: int, t, y, disc, p, xp=np):
+        """The transition of event ``i``'s own part (none for a lock's: :meth:`_relock`)."""
         j, w = self.events[i]
         new = list(disc)
+        if j >= self._lock_offset:
+            return new
         if j < self.K:
             D, Dd = self.deformation(y, p, xp)
             mu = self._mu(p, xp)
@@ -265,15 +301,46 @@ class HybridModel:
         return new
 
     def event_name(self, i: int, before, after) -> str:
-        """What event ``i`` was, from the discrete state before and after it."""
+        """What event ``i`` was, from the discrete state before and after it (``+lock`` where it
+        locked its contact; a lock's own event: ``lock``, ``unlock``, ``separation`` or
+        ``settle``)."""
         j, w = self.events[i]
-        return self.parts[j].event_name(w, before[j], after[j])
+        if j >= self._lock_offset:
+            k = j - self._lock_offset
+            return self._lock_name(before[j], after[j], after[k])
+        name = self.parts[j].event_name(w, before[j], after[j])
+        if j < self.K and self.locks and after[self._lock_offset + j]["mode"] \
+                and not before[self._lock_offset + j]["mode"]:
+            name = name.replace("+separation", "") + "+lock"
+        return name
+
+    @staticmethod
+    def _lock_name(before, after, law_after) -> str:
+        """The name of a lock's event from its states and its law's state after it."""
+        if after["mode"] and not before["mode"]:
+            return "lock"
+        if before["mode"] and not after["mode"]:
+            return "separation" if int(law_after["mode"]) == MODE_OPEN else "unlock"
+        return "settle"
+
+    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
+        """``[(name, contact)]``: the locks that event ``i`` released besides its own part (a
+        cluster whose push ended with a neighbour's event), named as their own events."""
+        j = self.events[i][0]
+        out = []
+        for lock in self.locks:
+            jj = self._lock_offset + lock.k
+            if jj != j and before[jj]["mode"] and not after[jj]["mode"]:
+                out.append((self._lock_name(before[jj], after[jj], after[lock.k]), lock.k))
+        return out
 
     def event_index(self, i: int) -> int:
         """The contact (or vehicle, for a brake event) that event ``i`` concerns."""
         j, _ = self.events[i]
         if j < self.K:
             return j
+        if j >= self._lock_offset:
+            return j - self._lock_offset
         b = j - self.K
         if b < len(self.brakes):
             return self.brakes[b].i
