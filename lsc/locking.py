@@ -39,6 +39,11 @@ __all__ = ["LockPart", "LOCK_SPEED", "clusters", "cluster_forces"]
 #: of the speed scale locks at its next turning point on the line, where it is pressed.
 LOCK_SPEED = 1e-3
 
+#: A contact with a restitution below this locks at its max deformation where it is pressed: its
+#: unloading line is over a million times stiffer than its loading, and a pair pressed on it
+#: rings at over a thousand times the contact's frequency (the integrators' step limit).
+LOCK_RESTITUTION = 1e-3
+
 
 class LockPart:
     """The lock of contact ``k`` (a part of the hybrid model, after the laws).
@@ -171,12 +176,16 @@ class LockingMixin:
         if j < self.K:
             k, law = j, self.laws[j]
             was, now = before[k], new[k]
+            top = law.force(D[k], 0.0, was)
             if w == 2 and was["mode"] == MODE_LOADING and now["mode"] == MODE_OPEN:
-                new = self._try_lock(k, y, new, p, was, now, law.force(D[k], 0.0, was), 0)
+                new = self._try_lock(k, y, new, p, was, now, top, 0)
+            elif w == 2 and was["mode"] == MODE_LOADING and (
+                    new[off + k]["watch"] or self._near_plastic(k, p)):
+                new = self._try_lock(k, y, new, p, was, now, top, 0)
             elif (w == 1 and was["mode"] == MODE_OPEN and now["mode"] == MODE_UNLOADING
                   and Dd[k] <= LOCK_SPEED * self.v_scale):
                 new[off + k] = dict(new[off + k], watch=1.0)
-            if int(new[k]["mode"]) != MODE_UNLOADING:
+            if int(new[k]["mode"]) == MODE_OPEN:
                 new[off + k] = dict(new[off + k], watch=0.0)
         elif j >= off:
             k = j - off
@@ -189,6 +198,11 @@ class LockingMixin:
             else:
                 new = self._release(k, w == 1, y, new, p)
         return self._settle_locks(y, new, p)
+
+    def _near_plastic(self, k, p) -> bool:
+        """Whether contact ``k`` unloads by a restitution below :data:`LOCK_RESTITUTION`."""
+        c = p["contacts"][k]
+        return self.laws[k].unload_kind == "restitution" and float(c["e"]) < LOCK_RESTITUTION
 
     def _try_lock(self, k, y, new, p, saved, records, ftop, kind):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
@@ -215,10 +229,11 @@ class LockingMixin:
         lock = new[off + k]
         law_state = LockPart.saved(lock)
         if not high and not lock["kind"]:
-            D, _ = self.deformation(y, p)
+            # (at the held deformation: the pair's residual closing rate at the lock, a
+            # rounding error, has moved it by a rounding error since)
             mu = self._mu(p, np)
             law_state = self.to_python([self.laws[k].on_event(
-                2, D[k], 0.0, law_state, p["contacts"][k], np, mu=mu[k])])[0]
+                2, lock["dlock"], 0.0, law_state, p["contacts"][k], np, mu=mu[k])])[0]
         new = list(new)
         new[k] = law_state
         new[off + k] = LockPart.init()
