@@ -158,6 +158,26 @@ class LockingMixin:
         off = self._lock_offset
         return [lock.k for lock in self.locks if disc[off + lock.k]["mode"]]
 
+    @staticmethod
+    def _lock_name(before, after, law_after) -> str:
+        """The name of a lock's event from its states and its law's state after it."""
+        if after["mode"] and not before["mode"]:
+            return "lock"
+        if before["mode"] and not after["mode"]:
+            return "separation" if int(law_after["mode"]) == 0 else "unlock"   # 0: open
+        return "settle"
+
+    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
+        """``[(name, contact)]``: the locks that event ``i`` released besides its own part (a
+        cluster whose push ended with a neighbour's event), named as their own events."""
+        j = self.events[i][0]
+        out = []
+        for lock in self.locks:
+            jj = self._lock_offset + lock.k
+            if jj != j and before[jj]["mode"] and not after[jj]["mode"]:
+                out.append((self._lock_name(before[jj], after[jj], after[lock.k]), lock.k))
+        return out
+
     def _hold_force(self, y, disc, p, locked, k) -> float:
         """The force [force] contact ``k`` carries with the contacts ``locked`` locked."""
         F = self._law_forces(y, disc, p)

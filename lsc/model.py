@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact import MODE_OPEN, STATUS, make_law
+from .contact import STATUS, make_law
 from .effects import BrakeEffect, FailureEffect
 from .errors import SimulationError
 from .locking import LockingMixin, LockPart, cluster_forces, clusters
@@ -313,26 +313,6 @@ class HybridModel(LockingMixin):
                 and not before[self._lock_offset + j]["mode"]:
             name = name.replace("+separation", "") + "+lock"
         return name
-
-    @staticmethod
-    def _lock_name(before, after, law_after) -> str:
-        """The name of a lock's event from its states and its law's state after it."""
-        if after["mode"] and not before["mode"]:
-            return "lock"
-        if before["mode"] and not after["mode"]:
-            return "separation" if int(law_after["mode"]) == MODE_OPEN else "unlock"
-        return "settle"
-
-    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
-        """``[(name, contact)]``: the locks that event ``i`` released besides its own part (a
-        cluster whose push ended with a neighbour's event), named as their own events."""
-        j = self.events[i][0]
-        out = []
-        for lock in self.locks:
-            jj = self._lock_offset + lock.k
-            if jj != j and before[jj]["mode"] and not after[jj]["mode"]:
-                out.append((self._lock_name(before[jj], after[jj], after[lock.k]), lock.k))
-        return out
 
     def event_index(self, i: int) -> int:
         """The contact (or vehicle, for a brake event) that event ``i`` concerns."""
