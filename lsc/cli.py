@@ -2,7 +2,9 @@
 
     lsc run [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--out DIR]
             [--no-plots]
-    lsc sweep [SCENE] --param PATH=VALUES [--param ...] [--grid] [--metric M] [--out DIR]
+    lsc sweep [SCENE] --param PATH=VALUES [--param ...] [--grid] [--metric M]
+              [--out DIR|FILE.parquet] [--workers N] [--dask] [--scheduler tcp://HOST:PORT]
+              [--task-size N] [--metrics M,...]
     lsc scenes
     lsc report [SCENE] [--method M] [--rtol R] [--atol A] [--dt DT] [--integrator I] [--n N]
                [--seed S] [--out FILE]
@@ -34,9 +36,10 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .cli_common import (DEFAULT_SCENE, add_overwrite_option, add_solver_options,
-                         add_speed_unit_option, json_writer, parquet_writer, positive_float,
-                         require_parquet, resolve_scene, scene_file, solver_options)
+from .cli_common import (DEFAULT_SCENE, add_overwrite_option, add_solver_options,  # noqa: F401
+                         add_speed_unit_option, add_study_options, is_parquet_file, json_writer,
+                         parquet_writer, positive_float, require_parquet, resolve_scene,
+                         scene_file, solver_options, study_settings)
 from .errors import SceneError, SimulationError
 from .outputs import OutputError, OutputExistsError, refuse_existing, write_files
 
@@ -171,25 +174,33 @@ def _add_sweep(sub) -> None:
     p.add_argument("--index", type=int, default=None,
                    help="which vehicle/contact of a per-vehicle/contact metric to plot "
                         "(default: the last vehicle, the first contact)")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                   help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR|FILE.parquet",
+                   help=f"output folder (default: {DEFAULT_OUT}/); a FILE.parquet streams every "
+                        "member into that one file as it is solved (no CSV, no plot; memory "
+                        "bounded whatever the number of members)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG figure")
     p.add_argument("--parquet", action="store_true",
                    help="also write sweep.parquet (the same table; needs the [frames] extra)")
+    add_study_options(p)
     add_overwrite_option(p)
     p.set_defaults(func=_cmd_sweep)
 
 
 def _cmd_sweep(args) -> int:
+    from .chunks import executor_from
     from .sweep import sweep
     scene = resolve_scene(args.scene)
     params = dict(_sweep_values(t) for t in args.param)
     opts = {k: v for k, v in (("rtol", args.rtol), ("dt", args.dt)) if v is not None}
+    opts.update(study_settings(args))
+    if is_parquet_file(args.out):
+        return _stream_sweep(args, scene, params, opts)
     out = Path(args.out)
     files = [out / "sweep.csv", out / "sweep.png", out / "sweep.parquet"]
     refuse_existing(files, args.overwrite)
     require_parquet(args.parquet)
-    s = sweep(scene, params, method=args.method, grid=args.grid, **opts)
+    with executor_from(args.workers, args.scheduler, args.dask) as executor:
+        s = sweep(scene, params, method=args.method, grid=args.grid, executor=executor, **opts)
     # (each writer fills the temporary file write_files made: that one checked the targets)
     writers = {out / "sweep.csv": lambda file: s.to_csv(file, overwrite=True)}
     if args.parquet:
@@ -203,6 +214,22 @@ def _cmd_sweep(args) -> int:
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
           + (f", {bad} failed (see the status column)" if bad else ""))
     print(f"written to {folder(args.out)}: " + ", ".join(p.name for p in written))
+    return 0
+
+
+def _stream_sweep(args, scene, params, opts) -> int:
+    """``lsc sweep --out FILE.parquet``: every member streamed into one Parquet file."""
+    from .chunks import executor_from
+    from .sweep import sweep
+    refuse_existing([Path(args.out)], args.overwrite)
+    require_parquet()
+    with executor_from(args.workers, args.scheduler, args.dask) as executor:
+        f = sweep(scene, params, method=args.method, grid=args.grid, executor=executor,
+                  out=args.out, overwrite=args.overwrite, **opts)
+    n, bad = f.stats["members"], f.stats["failed"]
+    print(f"{f.scene.name}: {n} members by {f.method} in {f.stats['wall_time']:.3g} s"
+          + (f", {bad} failed (see the status column)" if bad else ""))
+    print(f"written to {args.out}")
     return 0
 
 

@@ -130,3 +130,57 @@ def positive_float(text: str) -> float:
     if not (math.isfinite(x) and x > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
     return x
+
+
+# ----------------------------------------------------------------- studies in chunks
+def add_study_options(p) -> None:
+    """Declare the options of a study in chunks (``lsc sweep``, ``lsc mc``): where the chunks
+    run and which metrics are kept."""
+    p.add_argument("--workers", type=_positive_int, metavar="N",
+                   help="run the chunks on N worker processes of this machine (with --dask: "
+                        "a local Dask cluster of N workers); default: this process")
+    p.add_argument("--dask", action="store_true",
+                   help="run the chunks on a new local Dask cluster (needs the [dask] extra)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the chunks on the running Dask cluster of this scheduler")
+    p.add_argument("--task-size", type=_positive_int, metavar="N",
+                   help="members per chunk (default: chosen from the members and workers)")
+    p.add_argument("--metrics", type=_metric_list, metavar="M,M,...",
+                   help="with --out FILE.parquet: the metrics written (default: all for lsc "
+                        "sweep, those reported for lsc mc)")
+
+
+def study_settings(args) -> dict:
+    """The keywords of :func:`lsc.sweep` / ``monte_carlo`` that :func:`add_study_options` set
+    (the executor apart: :func:`lsc.chunks.executor_from`)."""
+    streamed = is_parquet_file(args.out)
+    if args.metrics is not None and not streamed:
+        raise SceneError("--metrics", "--metrics selects the columns of --out FILE.parquet; "
+                                      "give one (or leave --metrics out)")
+    return {"task_size": args.task_size, "metrics": args.metrics}
+
+
+def is_parquet_file(out) -> bool:
+    """True when ``--out`` names a Parquet file (the study is streamed into it)."""
+    return out is not None and str(out).lower().endswith(".parquet")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
+
+
+def _metric_list(text: str) -> list[str]:
+    from .result import METRICS
+
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    bad = [n for n in names if n not in METRICS]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"unknown metric {bad[0] if bad else text!r}; the "
+                                         f"metrics are {', '.join(METRICS)}")
+    return names

@@ -8,7 +8,7 @@ exactly 3600/5280 mph.
 from __future__ import annotations
 
 from .errors import SceneError
-from .units import _NUMBER, to_system
+from .units import _NUMBER, UNITS, to_system
 
 __all__ = ["SPEED_UNITS", "speed_display", "velocity_display", "unit_of"]
 
@@ -20,7 +20,6 @@ def speed_display(unit: str | None, system: str, path: str = "speed_unit") -> tu
     """``(factor, unit)``: multiply a speed in ``system``'s velocity unit by ``factor`` to print
     it in ``unit`` (one of :data:`SPEED_UNITS`); ``None`` → ``(1.0, the scene's unit)``.
     Raises :class:`SceneError` at ``path`` for another unit, naming the accepted ones."""
-    from .scene import UNITS
     if unit is None:
         return 1.0, UNITS[system]["velocity"]
     if unit not in SPEED_UNITS:

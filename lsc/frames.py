@@ -156,7 +156,8 @@ def sweep_frame(sweep_result):
         columns[label] = (values, unit)
         paths[label] = path
     for name, (_, per) in METRICS.items():
-        columns.update(_item_columns(name, s.metrics[name], per, s.scene, s.units[name]))
+        if name in s.metrics:  # (a study may keep only some metrics)
+            columns.update(_item_columns(name, s.metrics[name], per, s.scene, s.units[name]))
     columns["status"] = (np.asarray(s.status, dtype=str), None)
     df = _frame(columns, pd.RangeIndex(len(s.status), name="member"), _attrs(s.scene, s.method))
     df.attrs["paths"] = paths

@@ -1,30 +1,28 @@
-"""Impacts: the touch → separation episodes of each contact, read off a result's series and events.
+"""Impacts: the touch → separation episodes of each contact, read off a result's event points.
 
 An impact is one episode of one contact: from its first touch (a ``"contact"`` event, or t = 0
 for a contact closing at the start) to its separation (an event whose kind includes
 ``"separation"``). A contact of a chain that closes twice has two impacts. Every quantity of an
 impact is taken over its own interval, so a vehicle's braking before the touch or a later
-impact never enters it. Units: the scene's (see :attr:`lsc.Result.units`).
+impact never enters it. The states come from the rows a backend gives at its event points (both
+sides of every event: the end of one segment and the start of the next), the peaks from those
+rows and from the peaks the backend located between them. Units: the scene's (see
+:attr:`lsc.Result.units`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import SimulationError
+from .metrics import PUSHED, in_g, restitution
 
-__all__ = ["Impact", "find_impacts", "check_resolved"]
+__all__ = ["Impact", "find_impacts", "check_resolved", "PUSHED"]
 
 #: Relative accuracy to which the absolute times must resolve every impact's duration.
 TIME_RESOLUTION = 1e-8
-
-#: A contact whose closing speed at touch is at most this fraction of the largest speed of the
-#: run is pushed shut, not struck (a contact of a chain with no gap, closed by the crash
-#: behind it): its velocity restitution (separation / closing speed) is not applicable.
-PUSHED = 1e-6
-
 
 @dataclass(frozen=True)
 class Impact:
@@ -64,22 +62,9 @@ class Impact:
         """``t_end - t_start`` [time]."""
         return self.t_end - self.t_start
 
-    def raise_peaks(self, force=None, acceleration=None, g=1.0) -> "Impact":
-        """This impact with its peaks raised to ``force`` [force] and ``acceleration`` (rear,
-        front; signed) [acceleration] where they are larger in magnitude."""
-        new = {}
-        if force is not None and force > self.peak_force:
-            new["peak_force"] = float(force)
-        if acceleration is not None:
-            acc = tuple(float(b) if abs(b) > abs(a) else a
-                        for a, b in zip(self.peak_acceleration, acceleration))
-            new["peak_acceleration"] = acc
-            new["peak_acceleration_g"] = tuple(x / g for x in acc)
-        return replace(self, **new)
 
-
-def _parts(kind: str) -> set:
-    return set(kind.split("+"))
+def _parts(kind: str) -> list:
+    return kind.split("+")
 
 
 def episodes(events, K: int, t_last: float) -> list[tuple[int, float, float, bool]]:
@@ -110,44 +95,89 @@ def _signed_peak(a: np.ndarray) -> float:
     return float(a[np.argmax(np.abs(a))]) if a.size else 0.0
 
 
-def find_impacts(result, v_post: np.ndarray, records: list[dict]) -> tuple[Impact, ...]:
-    """Every impact of ``result`` (series and events set), in order of first touch.
+def _peaks_between(spans, t0: float, t1: float, contact: int, pair: tuple):
+    """The largest force of ``contact`` and the (rear, front) accelerations of largest magnitude
+    (signed) over the ``spans`` inside ``[t0, t1]`` (``None, None`` where none is)."""
+    inside = [s for s in spans if s[0] >= t0 and s[1] <= t1]
+    if not inside:
+        return None, None
+    acc = np.array([np.asarray(s[3], float)[list(pair)] for s in inside])
+    pick = np.argmax(np.abs(acc), axis=0)
+    return max(float(s[2][contact]) for s in inside), acc[pick, [0, 1]]
 
-    ``v_post`` (N,) are the velocities at the last separation: the end speeds of an impact that
-    ends then (the reference backend reports them from its own step). ``records`` are the
-    contacts' records (``ec, er``: absorbed and returned energy over the run)."""
-    t, v, a = result.t, result.v, result.a
-    K = result.deformation.shape[1]
-    found = episodes(result.events, K, float(t[-1]))
+
+def _crush_between(spans, t0: float, t1: float, contact: int) -> float:
+    """The largest deformation of ``contact`` over the ``spans`` inside ``[t0, t1]`` that give
+    one (-inf where none does)."""
+    return max((float(s[4][contact]) for s in spans
+                if len(s) > 4 and s[0] >= t0 and s[1] <= t1), default=-np.inf)
+
+
+def _raised(force: float, acc: tuple, span_force, span_acc) -> tuple[float, tuple]:
+    """``force`` and ``acc`` raised to the spans' peaks where those are larger in magnitude."""
+    if span_force is None:
+        return force, acc
+    return (max(force, span_force),
+            tuple(float(b) if abs(b) > abs(a) else a for a, b in zip(acc, span_acc)))
+
+
+def last_speeds(rows, events, v_post) -> np.ndarray:
+    """The speeds (N,) at the end of the rows, where an impact still open then ends (as
+    :func:`find_impacts` takes them): ``v_post`` if the last separation is then."""
+    t = rows["t"]
+    K = rows["deformation"].shape[1]
+    found = episodes(events, K, float(t[-1]))
+    if float(t[-1]) == max((e[2] for e in found if e[3]), default=np.nan):
+        return np.asarray(v_post, float)
+    return rows["v"][min(int(np.searchsorted(t, t[-1], side="left")), t.size - 1)]
+
+
+def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
+                 spans=()) -> tuple[Impact, ...]:
+    """Every impact, in order of first touch.
+
+    ``rows``: ``t`` (n,), ``v, a`` (n, N), ``deformation, force`` (n, K) at points that hold
+    both sides of every event (the ends of every segment; or a whole sampled series);
+    ``events`` the event list; ``v_post`` (N,) the velocities at the last separation (the end
+    speeds of an impact that ends then); ``records`` the contacts' records (``dmax, ec, er``);
+    ``speeds`` (N,) at t = 0; ``g`` [acceleration]; ``v_max`` the scale of the pushed-shut test
+    (:data:`PUSHED`); ``spans``: peaks a backend located between the rows, ``(t0, t1, force
+    (K,), acceleration (N,) signed)`` and optionally ``deformation (K,)``, each counted in the
+    impacts that hold ``[t0, t1]``."""
+    t, v, a = rows["t"], rows["v"], rows["a"]
+    K = rows["deformation"].shape[1]
+    found = episodes(events, K, float(t[-1]))
     t_post = max((e[2] for e in found if e[3]), default=np.nan)
-    count = np.bincount([e[0] for e in found], minlength=K)
-    g = result.scene.g
-    pushed = PUSHED * float(np.max(np.abs(v), initial=0.0))
+    count = [0] * K
+    for e in found:
+        count[e[0]] += 1
     impacts = []
     for k, t0, t1, separated in found:
-        rows = _rows(t, t0, t1)
+        span = _rows(t, t0, t1)
         pair = (k, k + 1)
-        vs = v[rows.start, pair]
+        vs = v[span.start, pair]
         if t0 == 0.0:
-            vs = np.asarray(result.scene.speeds, float)[list(pair)]
-        ve = v_post[list(pair)] if t1 == t_post else v[rows.stop - 1, pair]
-        peak_a = tuple(_signed_peak(a[rows, i]) for i in pair)
+            vs = np.asarray(speeds, float)[list(pair)]
+        ve = v_post[list(pair)] if t1 == t_post else v[span.stop - 1, pair]
+        force, peak_a = _raised(float(np.max(rows["force"][span, k])),
+                                tuple(_signed_peak(a[span, i]) for i in pair),
+                                *_peaks_between(spans, t0, t1, k, pair))
         closing, separating = float(vs[0] - vs[1]), float(ve[1] - ve[0])
         rec, alone = records[k], count[k] == 1
         e_energy = float(np.sqrt(rec["er"] / rec["ec"])) if alone and rec["ec"] > 0 else None
-        # (the record's max deformation is exact; the series holds it at the event, unless a
-        # backend thinned its samples, which none does with several impacts of a contact)
-        crush = float(rec["dmax"]) if alone else float(np.max(result.deformation[rows, k]))
+        # (the record's max deformation is exact; for a contact that closes again, the rows
+        # hold it at its events, the spans where it turns inside a segment)
+        crush = float(rec["dmax"]) if alone else max(float(np.max(rows["deformation"][span, k])),
+                                                     _crush_between(spans, t0, t1, k))
         impacts.append(Impact(
             contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
             closing_speed=closing, separation_speed=separating,
             v_start=tuple(map(float, vs)), v_end=tuple(map(float, ve)),
             delta_v=tuple(map(float, ve - vs)), peak_acceleration=peak_a,
-            peak_acceleration_g=tuple(x / g for x in peak_a),
-            peak_force=float(np.max(result.force[rows, k])),
-            max_deformation=crush,
-            restitution=separating / closing if closing > pushed else float("nan"),
-            restitution_energy=e_energy, struck=closing > pushed))
+            peak_acceleration_g=tuple(map(float, in_g(np.array(peak_a), g))),
+            peak_force=force, max_deformation=crush,
+            restitution=float(restitution(vs, ve, v_max)),
+            restitution_energy=e_energy, struck=closing > PUSHED * v_max))
     return tuple(impacts)
 
 

@@ -33,7 +33,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["LockPart", "LOCK_SPEED", "clusters", "cluster_forces"]
+from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
+from .model import HybridModel
+
+__all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "locking_model",
+           "can_lock", "clusters", "cluster_forces"]
 
 #: A contact that closes again at its permanent set at a closing speed of at most this fraction
 #: of the speed scale locks at its next turning point on the line, where it is pressed.
@@ -128,25 +132,82 @@ def cluster_forces(F, m, groups, K: int):
     return rows, accels
 
 
-class LockingMixin:
-    """The locks' side of :class:`lsc.model.HybridModel` (NumPy only: the backends that run the
-    locks, SciPy's, build the model with ``locking=True``, :meth:`locking_model`)."""
+class LockingModel(HybridModel):
+    """A chain's :class:`~lsc.model.HybridModel` with a lock per contact (after the laws and
+    effects, in :attr:`parts` and the discrete state). NumPy only: SciPy's backend builds it
+    (:func:`locking_model`); the other backends solve the plain model, which has no locks."""
 
-    def can_lock(self) -> bool:
-        """Whether this scene's contacts can lock: a chain (three vehicles or more) of IF-D
-        contacts with no brake and no failure effect (whose forces the locked force needs)."""
-        from .contact import HysteresisLaw
+    def _more_parts(self) -> list:
+        """One :class:`LockPart` per contact."""
+        self.locks = [LockPart(k) for k in range(self.K)]
+        return self.locks
 
-        return (self.N >= 3 and not self.brakes and not self.failures
-                and all(isinstance(law, HysteresisLaw) for law in self.laws))
+    def initial(self, p=None, xp=np):
+        """The plain model's initial state, every lock open."""
+        y0, disc = super().initial(p, xp)
+        return y0, disc + [lock.init() for lock in self.locks]
 
-    def locking_model(self):
-        """This scene's model with its locks (itself where it has them or cannot lock)."""
-        if self.locks or not self.can_lock():
-            return self
-        if getattr(self, "_locking_model", None) is None:
-            self._locking_model = type(self)(self.scene, locking=True)
-        return self._locking_model
+    def forces(self, y, disc, p, xp=np):
+        """Contact forces (K, ...) [force], a locked contact's from its cluster's motion
+        (:func:`cluster_forces`)."""
+        F = self._law_forces(y, disc, p, xp)
+        locked = self.locked(disc)
+        if not locked:
+            return F
+        rows, _ = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
+        return xp.asarray(rows)
+
+    def _law_forces(self, y, disc, p, xp=np):
+        """The contact laws' forces (K, ...) [force] (0 for a locked contact)."""
+        return HybridModel.forces(self, y, disc, p, xp)
+
+    def accelerations(self, y, disc, p, xp=np):
+        """As the plain model's, each vehicle of a cluster at the cluster's one acceleration
+        (exactly: no rounding may open the held deformation)."""
+        F, net, a = super().accelerations(y, disc, p, xp)
+        locked = self.locked(disc)
+        if locked:
+            _, accels = cluster_forces(self._law_forces(y, disc, p, xp), p["m"],
+                                       clusters(locked, self.N), self.K)
+            acc = [a[i] for i in range(self.N)]
+            for first, last, shared in accels:
+                acc[first:last + 1] = [shared] * (last + 1 - first)
+            a = xp.asarray(acc)
+        return F, net, a
+
+    def _effect_events(self, y, disc, p, xp):
+        """The locks' event functions (a chain that can lock has no other effect)."""
+        F, _, _ = self.accelerations(y, disc, p, xp)
+        _, Dd = self.deformation(y, p, xp)
+        off = self._lock_offset
+        vals = []
+        for lock in self.locks:
+            vals.extend(lock.events(F[lock.k], Dd[lock.k], disc[off + lock.k]))
+        return vals
+
+    def apply_event(self, i: int, t, y, disc, p, xp=np):
+        """The discrete state after event ``i``: its own part's transition (none for a lock's),
+        then the locks lock, watch or release as it makes them (:meth:`_relock`)."""
+        own = self.events[i][0] < self._lock_offset
+        new = super().apply_event(i, t, y, disc, p, xp) if own else list(disc)
+        return self._relock(i, y, disc, new, p)
+
+    def event_name(self, i: int, before, after) -> str:
+        """What event ``i`` was (``+lock`` where it locked its contact; a lock's own event:
+        ``lock``, ``unlock``, ``separation`` or ``settle``)."""
+        j, _ = self.events[i]
+        off = self._lock_offset
+        if j >= off:
+            return self._lock_name(before[j], after[j], after[j - off])
+        name = super().event_name(i, before, after)
+        if j < self.K and after[off + j]["mode"] and not before[off + j]["mode"]:
+            name = name.replace("+separation", "") + "+lock"
+        return name
+
+    def event_index(self, i: int) -> int:
+        """The contact (or vehicle) that event ``i`` concerns."""
+        j, _ = self.events[i]
+        return j - self._lock_offset if j >= self._lock_offset else super().event_index(i)
 
     @property
     def _lock_offset(self) -> int:
@@ -188,8 +249,6 @@ class LockingMixin:
         """The locks after event ``i`` (its own transition already in ``new``): lock, watch or
         release (:mod:`lsc.locking`), then release every lock its force has left
         (:meth:`_settle_locks`)."""
-        from .contact import MODE_LOADING, MODE_OPEN, MODE_UNLOADING
-
         j, w = self.events[i]
         off = self._lock_offset
         D, Dd = self.deformation(y, p)
@@ -228,8 +287,6 @@ class LockingMixin:
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
         range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
         the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
-        from .contact import BIG, MODE_UNLOADING
-
         force = self._hold_force(y, new, p, sorted({*self.locked(new), k}), k)
         if not 0.0 < force < float(ftop):
             return new
@@ -273,3 +330,20 @@ class LockingMixin:
                 break
             new = self._release(*out[0], y, new, p)
         return new
+
+
+def can_lock(model) -> bool:
+    """Whether ``model``'s contacts can lock: a chain (three vehicles or more) of IF-D contacts
+    with no brake and no failure effect (whose forces the locked force would need)."""
+    return (model.N >= 3 and not model.brakes and not model.failures
+            and all(isinstance(law, HysteresisLaw) for law in model.laws))
+
+
+def locking_model(model):
+    """``model`` with its locks (:class:`LockingModel`, built once per model), or ``model``
+    itself where it has them or cannot lock."""
+    if isinstance(model, LockingModel) or not can_lock(model):
+        return model
+    if getattr(model, "_locking_model", None) is None:
+        model._locking_model = LockingModel(model.scene)
+    return model._locking_model

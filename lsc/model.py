@@ -23,9 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from .contact import STATUS, make_law
-from .effects import BrakeEffect, FailureEffect
+from .effects import FailureEffect, vehicle_effects
 from .errors import SimulationError
-from .locking import LockingMixin, LockPart, cluster_forces, clusters
 from .moving_frame import Frame
 
 __all__ = ["HybridModel", "Frame", "OVER_TOL", "MAX_ANGLE", "EVENT_UNITS"]
@@ -53,7 +52,7 @@ def _event_unit(part, kind: str) -> str:
     return EVENT_UNITS.get(kind, "length")
 
 
-class HybridModel(LockingMixin):
+class HybridModel:
     """The hybrid system of a :class:`~lsc.scene.Scene`.
 
     Attributes
@@ -71,24 +70,20 @@ class HybridModel(LockingMixin):
         The contacts with a work-integral state ``W`` (state index ``2N + position``).
     """
 
-    def __init__(self, scene, locking: bool = False):
+    def __init__(self, scene):
         self.scene = scene
         self.N = N = scene.n_vehicles
         self.K = len(scene.contacts)
         m = scene.masses
         mu = m[:-1] * m[1:] / (m[:-1] + m[1:])
         self.laws = [make_law(c, mu[k]) for k, c in enumerate(scene.contacts)]
-        self.brakes = [BrakeEffect(i, v.brake, scene.g) for i, v in enumerate(scene.vehicles)
-                       if v.brake is not None]
+        self.brakes = vehicle_effects(scene)  # brakes and other registered vehicle effects
         # A failure with a post-failure curve is the contact law's own (its loading curve is
         # spliced at the failure point, where its breakpoint event is the failure); a failure
         # force alone is an effect watching the contact force.
         self.failures = [FailureEffect(k, c.failure) for k, c in enumerate(scene.contacts)
                          if c.failure is not None and c.failure.post_failure is None]
-        #: the locks of a chain's contacts (:mod:`lsc.locking`; only with ``locking`` and where
-        #: :meth:`can_lock`)
-        self.locks = [LockPart(k) for k in range(self.K)] if locking and self.can_lock() else []
-        self.parts = [*self.laws, *self.brakes, *self.failures, *self.locks]
+        self.parts = [*self.laws, *self.brakes, *self.failures, *self._more_parts()]
         self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
         self._work_idx = np.asarray(self.work, dtype=int)
         # incidence (N, K): contact k pushes vehicle k back and vehicle k+1 forward
@@ -111,6 +106,9 @@ class HybridModel(LockingMixin):
                                  for j, w in self.events)
         self.v_scale = float(self.speed_scale())
         self.event_linear, self.piece_event = self._piece_layout()
+
+    def _more_parts(self) -> list:
+        return []   # (parts after the effects: lsc.locking.LockingModel's locks)
 
     def features(self) -> frozenset[str]:
         """Everything this scene uses that a backend must solve (its contract,
@@ -152,22 +150,11 @@ class HybridModel(LockingMixin):
         disc += [b.init(y0[self.N + b.i], net[b.i], p["m"][b.i], p["brakes"][j], xp)
                  for j, b in enumerate(self.brakes)]
         disc += [f.init(F[f.k], p["failures"][j], xp) for j, f in enumerate(self.failures)]
-        disc += [lock.init() for lock in self.locks]
         return y0, disc
 
     # ------------------------------------------------------------------ smooth pieces
     def forces(self, y, disc, p, xp=np):
-        """Contact forces (K, ...) [force] in the frozen discrete state (a locked contact's from
-        its cluster's motion, :func:`lsc.locking.cluster_forces`)."""
-        F = self._law_forces(y, disc, p, xp)
-        locked = self.locked(disc)
-        if not locked:
-            return F
-        rows, _ = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
-        return xp.asarray(rows)
-
-    def _law_forces(self, y, disc, p, xp=np):
-        """The contact laws' forces (K, ...) [force] (0 for a locked contact)."""
+        """Contact forces (K, ...) [force] in the frozen discrete state."""
         D, Dd = self.deformation(y, p, xp)
         # (asarray of the list stacks it, as xp.stack would, at a tenth of the cost on NumPy)
         return xp.asarray([law.force(D[k], Dd[k], disc[k]) for k, law in enumerate(self.laws)])
@@ -184,13 +171,6 @@ class HybridModel(LockingMixin):
         net = self.net_forces(F, xp)
         m = p["m"].reshape((-1,) + (1,) * (net.ndim - 1))
         a = net / m
-        locked = self.locked(disc)
-        if locked:   # (each vehicle of a cluster at the cluster's one acceleration, exactly)
-            _, accels = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
-            acc = [a[i] for i in range(self.N)]
-            for first, last, shared in accels:
-                acc[first:last + 1] = [shared] * (last + 1 - first)
-            a = xp.asarray(acc)
         if self.brakes:
             acc = [a[i] for i in range(self.N)]
             off = self.K
@@ -220,7 +200,7 @@ class HybridModel(LockingMixin):
     def _effect_events(self, y, disc, p, xp):
         """The event functions of the brakes and failures (a list)."""
         vals = []
-        if self.brakes or self.failures or self.locks:
+        if self.brakes or self.failures:
             F, net, _ = self.accelerations(y, disc, p, xp)
             off = self.K
             for j, b in enumerate(self.brakes):
@@ -229,11 +209,6 @@ class HybridModel(LockingMixin):
             off += len(self.brakes)
             for j, f in enumerate(self.failures):
                 vals.extend(f.events(F[f.k], disc[off + j], p["failures"][j]))
-            if self.locks:
-                _, Dd = self.deformation(y, p, xp)
-                off += len(self.failures)
-                for j, lock in enumerate(self.locks):
-                    vals.extend(lock.events(F[lock.k], Dd[lock.k], disc[off + j]))
         return vals
 
     def event_pieces(self, t, y, disc, p, xp=np):
@@ -271,17 +246,9 @@ class HybridModel(LockingMixin):
         return y[2 * self.N + self.work.index(k)] if k in self.work else 0.0
 
     def apply_event(self, i: int, t, y, disc, p, xp=np):
-        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged, but for
-        the locks (:mod:`lsc.locking`), which lock, watch or release as it makes them."""
-        new = self._transition(i, t, y, disc, p, xp)
-        return self._relock(i, y, disc, new, p) if self.locks else new
-
-    def _transition(self, i: int, t, y, disc, p, xp=np):
-        """The transition of event ``i``'s own part (none for a lock's: :meth:`_relock`)."""
+        """Discrete state after event ``i`` at state ``y``; the other parts are unchanged."""
         j, w = self.events[i]
         new = list(disc)
-        if j >= self._lock_offset:
-            return new
         if j < self.K:
             D, Dd = self.deformation(y, p, xp)
             mu = self._mu(p, xp)
@@ -301,26 +268,19 @@ class HybridModel(LockingMixin):
         return new
 
     def event_name(self, i: int, before, after) -> str:
-        """What event ``i`` was, from the discrete state before and after it (``+lock`` where it
-        locked its contact; a lock's own event: ``lock``, ``unlock``, ``separation`` or
-        ``settle``)."""
+        """What event ``i`` was, from the discrete state before and after it."""
         j, w = self.events[i]
-        if j >= self._lock_offset:
-            k = j - self._lock_offset
-            return self._lock_name(before[j], after[j], after[k])
-        name = self.parts[j].event_name(w, before[j], after[j])
-        if j < self.K and self.locks and after[self._lock_offset + j]["mode"] \
-                and not before[self._lock_offset + j]["mode"]:
-            name = name.replace("+separation", "") + "+lock"
-        return name
+        return self.parts[j].event_name(w, before[j], after[j])
+
+    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
+        """``[(name, index)]``: other parts event ``i`` changed (:mod:`lsc.locking`)."""
+        return []
 
     def event_index(self, i: int) -> int:
         """The contact (or vehicle, for a brake event) that event ``i`` concerns."""
         j, _ = self.events[i]
         if j < self.K:
             return j
-        if j >= self._lock_offset:
-            return j - self._lock_offset
         b = j - self.K
         if b < len(self.brakes):
             return self.brakes[b].i

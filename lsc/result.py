@@ -1,18 +1,24 @@
-"""Result: time series, events and metrics of one simulated crash, in the scene's units.
+"""Result: events, metrics and (sampled when first asked for) time series of one crash.
 
-Every backend hands the same raw material to :meth:`Result.build`: sampled series (which include
-every event point, so peaks reached at events are exact), the event list, each contact's final
-hysteresis record and the solver statistics. Metrics are computed here, once, from that.
+Every backend hands the same raw material to :meth:`Result.build`: its rows at the event points
+(the exact states at both sides of every event), the peaks it located between them, the event
+list, each contact's final hysteresis record and the solver statistics; and a sampler that
+computes the series when they are first read. The impacts are read off the event points, and
+the metrics computed once from them by :func:`lsc.metrics.metrics` (the definitions every batch
+path shares); a solve whose caller reads only metrics never samples the series.
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
+from typing import Callable
 
 import numpy as np
 
+from . import metrics as _metrics
 from .errors import SimulationError
-from .impacts import Impact, check_resolved, find_impacts
+from .impacts import Impact, check_resolved, find_impacts, last_speeds
 
 __all__ = ["Result", "Event", "Impact", "METRICS"]
 
@@ -61,11 +67,16 @@ class Event:
     index: int
 
 
+def _series_property(name: str, doc: str) -> property:
+    return property(lambda self: self._series[name], doc=doc)
+
+
 @dataclass(eq=False)
 class Result:
     """One simulated crash. Arrays are in the scene's unit system; ``units`` names each field's unit.
 
-    Series: ``t`` (n,), ``x, v, a`` (n, N), ``deformation, force`` (n, K). ``impacts``: every
+    Series (sampled when first read): ``t`` (n,), ``x, v, a`` (n, N), ``deformation, force``
+    (n, K). ``impacts``: every
     touch → separation episode of every contact (:class:`~lsc.result.Impact`), in order of
     first touch; ``first_impact`` is the crash pulse. Headline metrics, each vehicle's and each
     contact's first impact: ``delta_v`` (N,) (speed at separation minus speed at touch),
@@ -85,12 +96,6 @@ class Result:
     """
 
     scene: object
-    t: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    deformation: np.ndarray
-    force: np.ndarray
     events: list
     method: str
     tolerances: dict
@@ -114,61 +119,73 @@ class Result:
     delta_v_total: np.ndarray = field(init=False)
     duration_total: float = field(init=False)
     warnings: tuple = field(init=False)
+    sampler: Callable = field(init=False, repr=False)
+
+    t = _series_property("t", "Times (n,) [time] of the sampled series.")
+    x = _series_property("x", "Positions (n, N) [length] (from where each vehicle starts).")
+    v = _series_property("v", "Velocities (n, N) [velocity].")
+    a = _series_property("a", "Accelerations (n, N) [acceleration].")
+    deformation = _series_property("deformation", "Deformations (n, K) [length].")
+    force = _series_property("force", "Contact forces (n, K) [force].")
 
     @classmethod
-    def build(cls, scene, *, t, x, v, a, deformation, force, events, contacts, v_final,
-              method, tolerances, stats) -> "Result":
-        """Assemble a result from sampled series and each contact's record.
+    def build(cls, scene, *, events, contacts, v_final, method, tolerances, stats,
+              t=None, x=None, v=None, a=None, deformation=None, force=None,
+              rows=None, sampler=None, peaks=(), failure_time=None) -> "Result":
+        """Assemble a result from the event points, the peaks between them and the records.
 
-        ``contacts`` is a list of dicts with ``dmax, fmax, dperm, ec, er`` (max and permanent
-        deformation, force at max deformation, absorbed and returned energy) per contact;
-        ``v_final`` (N,) the velocities at the last separation (after the crash). Raises
+        Either the whole series ``t, x, v, a, deformation, force`` (which then serve as the
+        rows), or ``rows`` (a dict of ``t`` (n,), ``v, a`` (n, N), ``deformation, force``
+        (n, K) holding both sides of every event: the ends of every segment) and ``sampler``
+        (a callable returning the series as such a dict, ``x`` included; called when a series
+        is first read). ``peaks``: the peaks the backend located between the rows, ``(t0, t1,
+        force (K,), acceleration (N,) signed)`` and optionally ``deformation (K,)``, each
+        counted in the impacts that hold ``[t0, t1]``; ``contacts``: per contact a dict with ``dmax,
+        fmax, dperm, ec, er`` (max and permanent deformation, force at max deformation,
+        absorbed and returned energy); ``v_final`` (N,) the velocities at the last separation;
+        ``failure_time`` (K,): when each contact's force first exceeded its failure force, if
+        the backend knows it (else read off the events and rows). Raises
         :class:`~lsc.SimulationError` when an impact is too short for the absolute times to
         resolve it, or a value is NaN or infinite where a number is expected.
         """
-        r = cls(scene=scene, t=np.asarray(t, float), x=np.asarray(x, float),
-                v=np.asarray(v, float), a=np.asarray(a, float),
-                deformation=np.asarray(deformation, float), force=np.asarray(force, float),
-                events=list(events), method=method, tolerances=dict(tolerances),
+        r = cls(scene=scene, events=list(events), method=method, tolerances=dict(tolerances),
                 stats=dict(stats))
+        if rows is None:
+            series = {name: np.asarray(val, float) for name, val in
+                      (("t", t), ("x", x), ("v", v), ("a", a), ("deformation", deformation),
+                       ("force", force))}
+            rows, sampler = series, lambda: series
+            r._series = series
+        rows = {k: np.asarray(rows[k], float) for k in ("t", "v", "a", "deformation", "force")}
+        _check_series(method, r.__dict__.get("_series", rows))
+        r.sampler = sampler
         r.warnings = tuple(str(w) for w in r.stats.get("warnings", ()))
         r.v_final = np.asarray(v_final, float)
-        r.max_deformation = np.array([c["dmax"] for c in contacts], float)
-        r.permanent_deformation = np.array([c["dperm"] for c in contacts], float)
-        r.energy_absorbed = np.array([c["ec"] for c in contacts], float)
-        r.energy_returned = np.array([c["er"] for c in contacts], float)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            # NaN (not applicable) for a contact that never absorbed any energy (never touched)
-            r.restitution_energy = np.sqrt(r.energy_returned / r.energy_absorbed)
-        r.impacts = find_impacts(r, r.v_final, contacts)
+        v_max = float(np.max(np.abs(rows["v"]), initial=0.0))
+        r.impacts = find_impacts(rows, r.events, r.v_final, contacts, speeds=scene.speeds,
+                                 g=scene.g, v_max=v_max, spans=peaks)
         for imp in r.impacts:
             check_resolved(imp.t_start, imp.t_end, f"contact {imp.contact}: the impact")
-        r._headline()
-        r.failure_time = _failure_times(r)
+        if failure_time is None:
+            failure_time = _failure_times(scene, r.events, rows)
+        r._set_metrics(rows, contacts, np.asarray(failure_time, float), v_max)
         _check_finite(r)
         return r
 
-    def _headline(self) -> None:
-        """The headline metrics from the impacts: each vehicle's and each contact's first
-        impact (for a two-vehicle scene the first impact of the scene); totals over the run."""
-        N, K = self.v.shape[1], self.deformation.shape[1]
+    def _set_metrics(self, rows, contacts, failure_time, v_max) -> None:
+        """The metrics (:func:`lsc.metrics.metrics`) from the first impact of each contact;
+        the totals over the run."""
+        records = {key: np.array([c[key] for c in contacts], float)
+                   for key in ("dmax", "dperm", "ec", "er")}
+        first = _first_record(self.impacts, len(contacts), v_max)
+        out = _metrics.metrics(first, records, self.v_final, self.scene.g, failure_time,
+                               float(rows["t"][-1]), last_speeds(rows, self.events, self.v_final))
+        for name in (*METRICS, "contact_time"):
+            setattr(self, name, out[name] if np.ndim(out[name]) else float(out[name]))
         imps = self.impacts
-        first_of_vehicle = [next((m for m in imps if i in m.vehicles), None) for i in range(N)]
-        first_of_contact = _first_of_contact(self)
-        self.delta_v = np.array([0.0 if m is None else m.delta_v[m.vehicles.index(i)]
-                                 for i, m in enumerate(first_of_vehicle)])
-        self.peak_acceleration = np.array(
-            [0.0 if m is None else m.peak_acceleration[m.vehicles.index(i)]
-             for i, m in enumerate(first_of_vehicle)])
-        self.peak_acceleration_g = self.peak_acceleration / self.scene.g
-        self.peak_force = np.array([0.0 if m is None else m.peak_force for m in first_of_contact])
-        self.restitution = np.array([np.nan if m is None else m.restitution
-                                     for m in first_of_contact])
-        self.contact_time = np.array([np.nan if m is None else m.t_start for m in first_of_contact])
-        last = [max((m.t_end for m in imps if m.contact == k and m.separated), default=np.nan)
-                for k in range(K)]
-        self.separation_time = np.array(last, float)
-        self.duration = imps[0].duration if imps else 0.0
+        self.separation_time = np.array(
+            [max((m.t_end for m in imps if m.contact == k and m.separated), default=np.nan)
+             for k in range(len(contacts))], float)
         self.delta_v_total = self.v_final - np.asarray(self.scene.speeds, float)
         if imps:
             t0, t1 = min(m.t_start for m in imps), max(m.t_end for m in imps)
@@ -177,30 +194,12 @@ class Result:
         else:
             self.duration_total = 0.0
 
-    def _raise_peaks(self, spans) -> None:
-        """Raise the impacts' peaks to those located between samples (on a dense output, or in
-        closed form) by the backend: ``spans`` is a list of ``(t0, t1, force (K,) [force],
-        acceleration (N,) [acceleration], signed)``, each applied to the impacts that hold
-        ``[t0, t1]``."""
-        if not spans:
-            return
-        t0 = np.array([s[0] for s in spans], float)
-        t1 = np.array([s[1] for s in spans], float)
-        F = np.array([s[2] for s in spans], float)
-        A = np.array([s[3] for s in spans], float)
-        new = []
-        for m in self.impacts:
-            inside = np.nonzero((t0 >= m.t_start) & (t1 <= m.t_end))[0]
-            if inside.size:
-                pair = list(m.vehicles)
-                acc = A[inside][:, pair]
-                pick = np.argmax(np.abs(acc), axis=0)
-                m = m.raise_peaks(float(np.max(F[inside, m.contact])),
-                                  acc[pick, [0, 1]], self.scene.g)
-            new.append(m)
-        self.impacts = tuple(new)
-        self._headline()
-        _check_finite(self)
+    @cached_property
+    def _series(self) -> dict:
+        """The sampled series (computed by the backend's sampler on first use)."""
+        series = {k: np.asarray(v, float) for k, v in self.sampler().items()}
+        _check_series(self.method, series)
+        return series
 
     @property
     def first_impact(self) -> Impact | None:
@@ -374,37 +373,83 @@ class Result:
 def _first_of_contact(r: Result) -> list:
     """Each contact's first impact (``None`` where it never touched)."""
     return [next((m for m in r.impacts if m.contact == k), None)
-            for k in range(r.deformation.shape[1])]
+            for k in range(len(r.scene.contacts))]
 
 
-def _failure_times(r: Result) -> np.ndarray:
-    """Per contact: when the force first exceeded the failure force (NaN: never, or none set)."""
-    out = np.full(len(r.scene.contacts), np.nan)
-    for k, c in enumerate(r.scene.contacts):
+def _first_record(impacts, K: int, v_max: float) -> dict:
+    """The first-impact record (:data:`lsc.metrics.FIRST_KEYS`) of the impacts: per contact,
+    its first impact's touch, separation (NaN while open), speeds and peaks."""
+    first = {"contact_time": np.full(K, np.nan), "v_touch": np.full((K, 2), np.nan),
+             "first_end": np.full(K, np.nan), "v_sep": np.full((K, 2), np.nan),
+             "peak_force": np.zeros(K), "peak_acc": np.zeros((K, 2)), "v_max": np.float64(v_max)}
+    for k in range(K):
+        m = next((m for m in impacts if m.contact == k), None)
+        if m is None:
+            continue
+        first["contact_time"][k], first["v_touch"][k] = m.t_start, m.v_start
+        if m.separated:
+            first["first_end"][k], first["v_sep"][k] = m.t_end, m.v_end
+        first["peak_force"][k], first["peak_acc"][k] = m.peak_force, m.peak_acceleration
+    return first
+
+
+def _failure_times(scene, events, rows) -> np.ndarray:
+    """Per contact: when the force first exceeded the failure force (NaN: never, or none set):
+    its failure event, else the first row above it (a force step at an event)."""
+    out = np.full(len(scene.contacts), np.nan)
+    t, force = rows["t"], rows["force"]
+    for k, c in enumerate(scene.contacts):
         if c.failure is None:
             continue
-        times = [ev.time for ev in r.events if "failure" in ev.kind.split("+") and ev.index == k]
+        times = [ev.time for ev in events if "failure" in ev.kind.split("+") and ev.index == k]
         if times:
             out[k] = times[0]
-        elif r.force.size and np.any(r.force[:, k] > c.failure.force):
-            out[k] = r.t[np.argmax(r.force[:, k] > c.failure.force)]
+        elif force.size and np.any(force[:, k] > c.failure.force):
+            out[k] = t[np.argmax(force[:, k] > c.failure.force)]
     return out
 
 
+def _check_series(method: str, series: dict) -> None:
+    """Raise :class:`SimulationError` if a series (or a row at the events) is not finite."""
+    present = [name for name in _SERIES_KINDS if name in series]
+    flat = np.concatenate([series[name].ravel() for name in present] or [()])
+    if np.isfinite(flat).all():   # the common case, in one call; else name the bad ones
+        return
+    bad = [name for name in present if not np.all(np.isfinite(series[name]))]
+    if bad:
+        raise _non_finite(method, bad)
+
+
+def _non_finite(method: str, bad: list) -> SimulationError:
+    return SimulationError(
+        f"{method}: the solve produced non-finite values in {', '.join(bad)}; the "
+        "scene's magnitudes are beyond what the computation can represent (check the "
+        "speeds, masses, gaps and stiffnesses for absurd values)")
+
+
 def _check_finite(r: Result) -> None:
-    """Raise :class:`SimulationError` if a series or a metric is NaN or infinite where a number
-    is expected (NaN is allowed only where :data:`_NOT_APPLICABLE` documents it)."""
-    bad = [name for name in _SERIES_KINDS if not np.all(np.isfinite(getattr(r, name)))]
+    """Raise :class:`SimulationError` if a metric is NaN or infinite where a number is expected
+    (NaN is allowed only where :data:`_NOT_APPLICABLE` documents it)."""
+    if _all_finite(r):
+        return
+    bad = []
     for name in (*METRICS, *TOTALS):
         value = np.asarray(getattr(r, name), float)
-        allowed = np.isnan(value) & _not_applicable(r, name, value.shape)
-        if not np.all(np.isfinite(value) | allowed):
+        finite = np.isfinite(value)
+        if finite.all():
+            continue
+        if not (finite | np.isnan(value) & _not_applicable(r, name, value.shape)).all():
             bad.append(name)
     if bad:
-        raise SimulationError(
-            f"{r.method}: the solve produced non-finite values in {', '.join(bad)}; the "
-            "scene's magnitudes are beyond what the computation can represent (check the "
-            "speeds, masses, gaps and stiffnesses for absurd values)")
+        raise _non_finite(r.method, bad)
+
+
+def _all_finite(r: Result) -> bool:
+    """Whether every metric and total is finite, ``failure_time`` NaN or finite (the common
+    case, told with one NumPy call; the documented NaN otherwise is checked one by one)."""
+    values = [getattr(r, name) for name in (*METRICS, *TOTALS) if name != "failure_time"]
+    flat = np.concatenate([v.ravel() if isinstance(v, np.ndarray) else (v,) for v in values])
+    return bool(np.isfinite(flat).all()) and not bool(np.isinf(r.failure_time).any())
 
 
 def _not_applicable(r: Result, name: str, shape) -> np.ndarray:

@@ -1,8 +1,9 @@
 """A JSON Schema (draft 2020-12) of the scene format, generated from the loader's own tables.
 
 :func:`scene_schema` builds it from the key tables of :mod:`lsc.scene` (the same tuples the loader
-checks a scene against), the solver options' ranges of :mod:`lsc.solvers` and the speed units of
-:mod:`lsc.display`, so the two cannot drift apart. The package ships it as
+checks a scene against), the declarations of the contact laws (:mod:`lsc.laws`) and effects
+(:mod:`lsc.effects`) the loader reads them by, the solver options' ranges of :mod:`lsc.solvers`
+and the speed units of :mod:`lsc.display`, so the two cannot drift apart. The package ships it as
 ``lsc/data/scene.schema.json`` (regenerate with ``python -m lsc schema --out
 lsc/data/scene.schema.json``; a test checks that the file equals :func:`scene_schema`).
 
@@ -17,10 +18,12 @@ from __future__ import annotations
 import json
 from importlib import resources
 
-from . import scene as _scene
 from .display import SPEED_UNITS
-from .solvers import ALL_OPTIONS, MAX_SAMPLES
-from .units import _NUMBER_TEXT
+from .effects import FailureEffect, vehicle_effect_classes
+from .laws import REQUIRED, aliases, law_class, laws
+from .scene import _parts, _scene, _tables
+from .solvers import ALL_OPTIONS, MAX_SAMPLES, METHODS
+from .units import _NUMBER_TEXT, UNITS
 
 __all__ = ["scene_schema", "schema_text", "SCHEMA_ID", "shipped_schema"]
 
@@ -92,17 +95,17 @@ def _loading() -> dict:
                                                          "deformation column"},
         "force": {"type": "string", "description": "the unit of a table's or csv's force column"},
     }
-    out = _object(_scene._LOADING_KEYS, props, "a loading curve: exactly one of "
-                  + ", ".join(_scene._LOADING_KINDS))
-    out["oneOf"] = _one_of(_scene._LOADING_KINDS)
-    out["allOf"] = [_columns_only_with_tables(_scene._LOADING_KINDS)]
+    out = _object(_tables._LOADING_KEYS, props, "a loading curve: exactly one of "
+                  + ", ".join(_tables._LOADING_KINDS))
+    out["oneOf"] = _one_of(_tables._LOADING_KINDS)
+    out["allOf"] = [_columns_only_with_tables(_tables._LOADING_KINDS)]
     return out
 
 
 def _columns_only_with_tables(kinds) -> dict:
     """Column units (``deformation``, ``force``) only beside a ``table`` or a ``csv``."""
     others = [k for k in kinds if k not in ("table", "csv")]
-    return {"if": {"anyOf": _one_of(_scene._COLUMN_KEYS)},
+    return {"if": {"anyOf": _one_of(_tables._COLUMN_KEYS)},
             "then": {"not": {"anyOf": _one_of(others)}}}
 
 
@@ -114,100 +117,108 @@ def _unloading() -> dict:
         stiffness=_quantity("stiffness", "a straight unloading line of this slope from the peak", 0),
         table=dict(loading["table"], description="[deformation, force] pairs of the rebound, "
                    "in time order, ending at force 0"))
-    out = _object(_scene._UNLOADING_KEYS, props, "the unloading branch: exactly one of "
-                  + ", ".join(_scene._UNLOADING_KINDS))
-    out["oneOf"] = _one_of(_scene._UNLOADING_KINDS)
-    out["allOf"] = [_columns_only_with_tables(_scene._UNLOADING_KINDS)]
+    out = _object(_tables._UNLOADING_KEYS, props, "the unloading branch: exactly one of "
+                  + ", ".join(_tables._UNLOADING_KINDS))
+    out["oneOf"] = _one_of(_tables._UNLOADING_KINDS)
+    out["allOf"] = [_columns_only_with_tables(_tables._UNLOADING_KINDS)]
     return out
 
 
-#: What each contact key means (the damping laws' keys: see :class:`lsc.scene.Damping`).
+def _param(param, params=()) -> dict:
+    """The schema of a declared key (:class:`lsc.laws.Param`); a unit kind that depends on other
+    keys is taken at their defaults."""
+    kind = param.kind
+    if callable(kind):
+        kind = kind({p.key: p.default for p in params})
+    low, exclusive, high = param.bounds
+    return _quantity(kind, param.doc, low, exclusive=exclusive, maximum=high)
+
+
+#: The contact keys every law takes, and the IF-D law's tables.
 _CONTACT_PROPS = {
     "gap": _quantity("length", "the initial gap between the two bumpers", 0, exclusive=False),
     "failure": {"$ref": "#/$defs/failure"},
     "loading": {"$ref": "#/$defs/loading"},
     "unloading": {"$ref": "#/$defs/unloading"},
-    "stiffness": _quantity("stiffness", "k: force/length (Hunt–Crossley: force/length^n)", 0),
-    "exponent": _quantity("dimensionless", "Hunt–Crossley's n in F = k D^n (1 + α dD/dt)", 0),
-    "restitution": _quantity("dimensionless", "the target coefficient of restitution e, "
-                             "converted to the damping by the law's own relation", 0, maximum=1),
-    "damping_restitution": _quantity("damping_per_length", "Brach's c2 (restoring)", 0,
-                                     exclusive=False),
 }
-_DAMPING_MEANING = {"kelvin": ("damping", "Kelvin's c in F = k D + c dD/dt"),
-                    "hunt-crossley": ("slowness", "Hunt–Crossley's α in F = k D^n (1 + α dD/dt)"),
-                    "brach": ("damping_per_length", "Brach's c1 (compressing) in "
-                                                    "F = k D + c D dD/dt")}
 
 
 def _contact_law(law: str, names) -> dict:
-    """The contact table of one law: its keys, with ``law`` naming it."""
-    keys, _ = _scene._CONTACT_LAWS[law]
-    kind, meaning = _DAMPING_MEANING.get(law, ("damping", ""))
-    props = dict(_CONTACT_PROPS, law=_name(names, f"the contact law: {law}"),
-                 damping=_quantity(kind, meaning, 0, exclusive=False))
-    out = _object(_scene._CONTACT_COMMON_KEYS + keys, props, f"a contact with the {law} law")
-    if law == "hysteresis":
-        out["required"] = ["loading", "unloading"]
+    """The contact table of one law: its declared keys, with ``law`` naming it."""
+    cls = law_class(law)
+    declared = () if getattr(cls, "table_keys", None) else cls.params_declared
+    props = dict(_CONTACT_PROPS, law=_name(names, f"the contact law: {law}"))
+    props.update({p.key: _param(p, declared) for p in declared})
+    out = _object(_parts._CONTACT_COMMON_KEYS + _parts.law_keys(law), props,
+                  f"a contact with the {law} law")
+    if not declared:
+        out["required"] = list(cls.table_keys)
     else:
-        out["required"] = ["law", "stiffness"]
-        out["oneOf"] = _one_of(_scene._DAMPING_CHOICES[law])
+        out["required"] = ["law"] + [p.key for p in declared if p.default is REQUIRED]
+        choice, _ = cls.choice
+        if choice:
+            out["oneOf"] = _one_of(choice)
     return out
 
 
 def _contact() -> dict:
-    laws = []
-    for law in _scene._CONTACT_LAWS:
-        names = [law] + [a for a, b in _scene._LAW_ALIASES.items() if b == law]
-        laws.append(_contact_law(law, names))
+    alias = aliases()
+    laws_ = [_contact_law(law, [law] + [a for a, b in alias.items() if b == law]) for law in laws()]
     return {"description": "a contact between vehicles[k] (rear) and vehicles[k+1]: the IF-D "
                            "law (\"hysteresis\", the default) or a damping law",
-            "oneOf": laws}
+            "oneOf": laws_}
+
+
+def _effect(cls, description: str, extra=None) -> dict:
+    """The table of an effect: its declared keys (and ``extra`` ones)."""
+    props = {p.key: _param(p, cls.params_declared) for p in cls.params_declared}
+    props.update(extra or {})
+    keys = getattr(cls, "table_keys", None) or cls.keys()
+    return _object(keys, props, description,
+                   required=[p.key for p in cls.params_declared if p.default is REQUIRED])
 
 
 def _solver() -> dict:
-    assert set(_scene._SOLVER_KEYS) - {"method"} <= ALL_OPTIONS
-    props = {"method": _name(_scene.METHODS + tuple(_scene._METHOD_ALIASES),
-                             "the backend: " + ", ".join(_scene.METHODS)),
+    assert set(_parts._SOLVER_KEYS) - {"method"} <= ALL_OPTIONS
+    props = {"method": _name(METHODS + tuple(_parts._METHOD_ALIASES),
+                             "the backend: " + ", ".join(METHODS)),
              "rtol": _quantity("dimensionless", "relative tolerance, in (0, 1)", 0),
              "atol": _quantity("dimensionless", "absolute tolerance", 0),
              "integrator": {"type": "string", "pattern": r"\S",
                             "description": "the integrator's name (e.g. \"DOP853\")"}}
     props["rtol"]["anyOf"][0]["exclusiveMaximum"] = 1
-    for key in _scene._SOLVER_TIMES:
+    for key in _parts._SOLVER_TIMES:
         props[key] = _quantity("time", {"dt": "the fixed step", "t_end": "the end time"}[key], 0)
-    for key in _scene._SOLVER_COUNTS:
+    for key in _parts._SOLVER_COUNTS:
         count = {"type": "integer", "minimum": 1}
         if key == "n_samples":
             count["maximum"] = MAX_SAMPLES
         props[key] = {"description": f"{key}: a whole number >= 1", "anyOf": [
             count, {"$ref": "#/$defs/quantity_text"}]}
-    return _object(_scene._SOLVER_KEYS, props, "the solver: method and options")
+    return _object(_parts._SOLVER_KEYS, props, "the solver: method and options")
 
 
 def _vehicle() -> dict:
-    brake = _object(_scene._BRAKE_KEYS, {
-        "mu": _quantity("dimensionless", "kinetic tyre friction coefficient", 0),
-        "mu_static": _quantity("dimensionless", "static friction coefficient (>= mu; default mu)",
-                               0, exclusive=False)}, "Coulomb tyre friction", required=["mu"])
-    out = _object(_scene._VEHICLE_KEYS, {
+    props = {
         "name": {"type": "string"},
         "weight": _quantity("force", "the vehicle's weight (mass = weight / g)", 0),
         "mass": _quantity("mass", "the vehicle's mass", 0),
-        "speed": _quantity("velocity", "the initial speed (vehicles rear to front)"),
-        "brake": brake}, "a rigid vehicle", required=["speed"])
+        "speed": _quantity("velocity", "the initial speed (vehicles rear to front)")}
+    props.update({table: _effect(cls, cls.summary) for table, cls in
+                  vehicle_effect_classes().items()})
+    out = _object(_parts.vehicle_keys(), props, "a rigid vehicle", required=["speed"])
     out["oneOf"] = _one_of(("weight", "mass"))
     return out
 
 
 def scene_schema() -> dict:
     """The JSON Schema (draft 2020-12) of a scene, as a dict (see the module's docstring)."""
-    units = sorted(_scene.UNITS)
+    units = sorted(UNITS)
     top = {
         "name": {"type": "string", "description": "the scene's name (default: the file's stem)"},
         "units": _name(units, "the unit system of bare numbers and results: "
-                       + " or ".join(f"{u} ({_scene.UNITS[u]['length']}, s, {_scene.UNITS[u]['mass']}, "
-                                     f"{_scene.UNITS[u]['force']})" for u in units)
+                       + " or ".join(f"{u} ({UNITS[u]['length']}, s, {UNITS[u]['mass']}, "
+                                     f"{UNITS[u]['force']})" for u in units)
                        + "; default SI"),
         "g": _quantity("acceleration", "the local acceleration of gravity (weight → mass)", 0),
         "vehicles": {"type": "array", "minItems": 2, "items": {"$ref": "#/$defs/vehicle"},
@@ -232,9 +243,8 @@ def scene_schema() -> dict:
                           "description": "a number and a unit, e.g. \"10 mph\" or \"3500 lbf\""},
         "vehicle": _vehicle(), "contact": _contact(), "loading": _loading(),
         "unloading": _unloading(), "solver": _solver(),
-        "failure": _object(_scene._FAILURE_KEYS, {
-            "force": _quantity("force", "the force above which the bumper fails", 0),
-            "post_failure": {"$ref": "#/$defs/loading"}}, "bumper failure", required=["force"]),
+        "failure": _effect(FailureEffect, "bumper failure",
+                           {"post_failure": {"$ref": "#/$defs/loading"}}),
     }
     return schema
 

@@ -9,10 +9,15 @@ members are still returned.
 The sweep knows no backend: it resolves one (:func:`lsc.api.resolve`, ``auto`` preferring a
 batch path for a batch) and reads its declaration (:mod:`lsc.solvers.base`). Where the
 backend's batch path declares everything the scene uses, takes the options given and every swept
-path maps onto the model's numbers (:func:`lsc.parameters.batch_params`), all valid members go
-to its ``solve_batch`` at once; otherwise (a sweep over solver settings, a path the batch cannot
-set, a backend with no batch path) the members are solved one by one, each with its own
-settings.
+path maps onto the model's numbers (:func:`lsc.parameters.batch_params`), each chunk's valid
+members go to its ``solve_batch`` at once; otherwise (a sweep over solver settings, a path the
+batch cannot set, a backend with no batch path) the members are solved one by one, each with
+its own settings.
+
+The members are solved in chunks (:mod:`lsc.chunks`), in this process or on an executor (a
+process pool, a Dask cluster), and kept in memory (:class:`SweepResult`) or written to a Parquet
+file as they come (``out=``, :class:`lsc.parquet.SweepFile`): memory then holds a few chunks,
+whatever the number of members.
 """
 
 from __future__ import annotations
@@ -26,16 +31,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError, SimulationError
+from .errors import SceneError
 from .model import HybridModel
 from .result import METRICS
-from .scene import Scene, UnloadingStiffness
+from .scene import Scene
 from . import parameters, solvers
 
-__all__ = ["sweep", "SweepResult", "MAX_MEMBERS", "check_keywords"]
+__all__ = ["sweep", "SweepResult", "MAX_MEMBERS", "check_keywords", "study"]
 
-#: Most members of one sweep (a grid counts its product): the batch paths hold a few hundred
-#: bytes per member at once, so this bounds a sweep's memory to a few GiB. Split a larger study.
+#: Most members of one sweep held in memory (a grid counts its product): a few hundred bytes per
+#: member, so this bounds a sweep's memory to a few GiB. A sweep written to Parquet (``out=``)
+#: holds one chunk at a time and has no such bound.
 MAX_MEMBERS = 10_000_000
 
 
@@ -104,7 +110,7 @@ class SweepResult:
             cols[path] = vals
         names = [v.name for v in self.scene.vehicles]
         for name, (kind, per) in METRICS.items():
-            if metrics is not None and name not in metrics:
+            if (metrics is not None and name not in metrics) or name not in self.metrics:
                 continue
             arr = self.metrics[name]
             unit = self.scene.unit(kind)
@@ -165,27 +171,6 @@ def _csv_text(text: str) -> str:
 
 
 # --------------------------------------------------------------------------- parameters
-def _axes(scene: Scene, params: dict, grid: bool):
-    """Swept values per path as float arrays (n,) in scene units, and the sweep shape."""
-    if not isinstance(params, dict) or not params:
-        raise SceneError("params", "a sweep needs a dict of dotted scene paths to arrays of values")
-    raw = {}
-    for path, vals in params.items():
-        _check_path(scene, str(path))
-        raw[path] = _to_numbers(scene, path, _sweep_values(str(path), vals))
-    if grid:
-        check_members(math.prod(a.size for a in raw.values()), "params")
-        mesh = np.meshgrid(*raw.values(), indexing="ij")
-        shape = mesh[0].shape
-        return {p: m.reshape(-1) for p, m in zip(raw, mesh)}, shape
-    sizes = {p: a.size for p, a in raw.items()}
-    if len(set(sizes.values())) != 1:
-        raise SceneError("params", f"sweep arrays must have equal lengths (or pass grid=True), got "
-                         + ", ".join(f"{p}: {n}" for p, n in sizes.items()))
-    n = next(iter(sizes.values()))
-    return raw, (n,)
-
-
 def _check_path(scene: Scene, path: str) -> None:
     """Raise the loader's error if ``path`` names no field of the scene (checked on a probe)."""
     try:
@@ -195,11 +180,11 @@ def _check_path(scene: Scene, path: str) -> None:
             raise SceneError(path, str(e.message if hasattr(e, "message") else e)) from None
 
 
-def _sweep_values(path: str, vals) -> np.ndarray:
+def _sweep_values(path: str, vals, in_memory: bool = True) -> np.ndarray:
     """The values of one swept path as a 1-D array: floats, or objects (floats and strings with
     units). A generator or iterator is refused (it may not end, and it is used up once): give a
     list, a tuple or an array; so is a boolean (not a number) and anything but a real number or a
-    string."""
+    string. ``in_memory``: the results are to be held (at most :data:`MAX_MEMBERS`)."""
     if (isinstance(vals, (str, bytes, dict, set, frozenset)) or hasattr(vals, "__next__")
             or not (hasattr(vals, "__len__") or hasattr(vals, "__array__"))):
         raise SceneError(path, "sweep values must be a list, tuple or 1-D array of numbers (or "
@@ -219,7 +204,8 @@ def _sweep_values(path: str, vals) -> np.ndarray:
                 arr = arr.astype(float)
     if arr.ndim != 1 or arr.size == 0:
         raise SceneError(path, "sweep values must be a non-empty 1-D list or array")
-    check_members(arr.size, path)
+    if in_memory:
+        check_members(arr.size, path)
     return arr
 
 
@@ -240,97 +226,6 @@ def _to_numbers(scene: Scene, path: str, arr: np.ndarray) -> np.ndarray:
     return out
 
 
-def _validate(scene: Scene, values: dict, n: int) -> np.ndarray:
-    """Status per member: ``"ok"`` or the loader's error for that member.
-
-    Numeric fields are checked against the loader's bounds by probing each path's extremes
-    (every bound the loader applies to one field is an interval); cross-field rules (closing
-    speeds, unloading stiffer than loading) are screened per member. Any member a screen flags is
-    loaded in full, so its message is exactly the loader's.
-    """
-    status = np.full(n, "ok", dtype=object)
-    suspect = np.zeros(n, bool)
-    for path, vals in values.items():
-        bad = ~np.isfinite(vals)
-        lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]))
-        suspect |= bad | (vals < lo) | (vals > hi)
-    # closing speeds (no brakes): the rear vehicle of some pair must be faster
-    speeds = np.tile(scene.speeds, (n, 1))
-    for path, vals in values.items():
-        parts = path.replace("[", ".").replace("]", "").split(".")
-        if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
-            speeds[:, int(parts[1])] = vals
-    if not any(v.brake is not None for v in scene.vehicles):
-        suspect |= ~np.any(speeds[:, :-1] - speeds[:, 1:] > 0, axis=1)
-    # unloading stiffer than a linear loading line
-    for k, c in enumerate(scene.contacts):
-        ks = values.get(f"contacts.{k}.loading.stiffness")
-        su = values.get(f"contacts.{k}.unloading.stiffness")
-        if (ks is not None or su is not None) and isinstance(c.law.unloading, UnloadingStiffness):
-            kk = ks if ks is not None else c.law.loading.end_slope
-            ss = su if su is not None else c.law.unloading.stiffness
-            suspect |= np.asarray(ss < kk)
-    cache = {}
-    for j in np.nonzero(suspect)[0]:
-        member = {p: float(v[j]) for p, v in values.items()}
-        key = tuple(member.items())
-        if key not in cache:
-            try:
-                scene.with_values(member)
-                cache[key] = "ok"
-            except SceneError as e:
-                cache[key] = f"SceneError: {e}"
-        status[j] = cache[key]
-    return status
-
-
-def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, float]:
-    """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone.
-
-    Every bound the loader puts on one numeric field is an interval, so bisection from an
-    accepted anchor (the value nearest the base scene's own) finds its ends in O(log n) loads.
-    """
-    if u.size == 0:
-        return np.inf, -np.inf
-
-    def accepted(j: int) -> bool:
-        try:
-            scene.with_values({path: float(u[j])})
-            return True
-        except SceneError:
-            return False
-
-    try:
-        anchor = int(np.argmin(np.abs(u - parameters.read_back(scene, path))))
-    except (SceneError, AttributeError, IndexError, ValueError, KeyError):
-        anchor = u.size // 2
-    if not accepted(anchor):
-        return np.inf, -np.inf  # no anchor: every member is checked in full
-    if accepted(0):
-        first = 0
-    else:
-        a, b = 0, anchor  # u[a] rejected, u[b] accepted
-        while b - a > 1:
-            mid = (a + b) // 2
-            a, b = (a, mid) if accepted(mid) else (mid, b)
-        first = b
-    if accepted(u.size - 1):
-        last = u.size - 1
-    else:
-        a, b = anchor, u.size - 1  # u[a] accepted, u[b] rejected
-        while b - a > 1:
-            mid = (a + b) // 2
-            a, b = (mid, b) if accepted(mid) else (a, mid)
-        last = a
-    return float(u[first]), float(u[last])
-
-
-def _empty_metrics(scene: Scene, n: int) -> dict:
-    N, K = scene.n_vehicles, len(scene.contacts)
-    shape = {"vehicle": (n, N), "contact": (n, K), "scene": (n,)}
-    return {name: np.full(shape[per], np.nan) for name, (_, per) in METRICS.items()}
-
-
 def _progress(total: int, progress):
     from tqdm.auto import tqdm
 
@@ -338,10 +233,39 @@ def _progress(total: int, progress):
                 unit="scene", desc="lsc sweep", leave=False)
 
 
+# --------------------------------------------------------------------------- members
+class Arrays:
+    """Members given as equal-length arrays: dotted path → (n,) floats [scene units]."""
+
+    def __init__(self, values: dict):
+        self.values = values
+        self.n = len(next(iter(values.values())))
+
+    def chunk(self, start: int, stop: int) -> dict:
+        """The members ``start:stop``."""
+        return {p: v[start:stop] for p, v in self.values.items()}
+
+
+class Grid:
+    """Members of a grid (the product of ``axes``, C order), built a chunk at a time."""
+
+    def __init__(self, axes: dict):
+        self.axes = axes
+        self.shape = tuple(a.size for a in axes.values())
+        self.n = math.prod(self.shape)
+
+    def chunk(self, start: int, stop: int) -> dict:
+        """The members ``start:stop`` (the same values as ``numpy.meshgrid(indexing="ij")``)."""
+        index = np.unravel_index(np.arange(start, stop), self.shape)
+        return {p: a[i] for (p, a), i in zip(self.axes.items(), index)}
+
+
 # --------------------------------------------------------------------------- the sweep
 def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False, progress=None,
-          chunk: int | None = None, workers: int | None = None, **options) -> SweepResult:
-    """Solve ``scene`` for every member of a parameter sweep.
+          chunk: int | None = None, workers: int | None = None, metrics=None, out=None,
+          overwrite: bool = False, executor=None, task_size: int | None = None,
+          **options):
+    """Solve ``scene`` for every member of a parameter sweep, in chunks.
 
     Parameters
     ----------
@@ -357,46 +281,176 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
         Show a progress bar (``None``: only when stderr is a terminal).
     chunk, workers : int, optional
         Batch controls (:data:`lsc.solvers.base.CONTROLS`) of backends whose batch path takes
-        them (the batched integrator): most members in one batch call, and batch calls run at
-        once. Given to a backend whose batch path does not take them, the members are solved
-        one by one. Unset: the backend's defaults.
+        them (the batched integrator): most members in one of its batch calls, and batch calls
+        run at once (threads) within one task. Given to a backend whose batch path does not take
+        them, the members are solved one by one. Unset: the backend's defaults.
+    metrics : str or sequence of str, optional
+        The metrics kept (names of :data:`lsc.result.METRICS`; default: all).
+    out : path, optional
+        Write the members to this Parquet file as they are solved (one row group per task;
+        :class:`lsc.parquet.SweepFile` is returned and no member is held in memory). Refused if
+        the file exists, unless ``overwrite``; whole or not at all. Needs pyarrow.
+    executor : concurrent.futures.Executor, optional
+        Runs the tasks through its ``submit``: a ``ProcessPoolExecutor``, a
+        ``dask.distributed.Client``, ...; default: this process. The results are the same,
+        member for member, whatever the executor and the task size.
+    task_size : int, optional
+        Members per task (one ``solve_batch`` call); default: :func:`lsc.chunks.task_size`.
     **options
         Solver options as for :func:`lsc.solve` (``rtol``, ``dt``, ...).
 
     Returns
     -------
-    SweepResult
+    SweepResult, or SweepFile with ``out``
     """
-    start = time.perf_counter()
-    check_keywords("sweep", options, ("method", "grid", "progress", "chunk", "workers"))
+    check_keywords("sweep", options, ("method", "grid", "progress", "chunk", "workers",
+                                      "metrics", "out", "overwrite", "executor", "task_size"))
     controls = {k: v for k, v in (("chunk", chunk), ("workers", workers)) if v is not None}
-    for name, value in controls.items():
-        _check_count(name, value)
+    for name, value in {**controls, "task_size": task_size}.items():
+        if value is not None:
+            _check_count(name, value)
     if not isinstance(grid, (bool, np.bool_)):
         raise SceneError("grid", f"grid must be True or False, got {grid!r}")
     base = Scene.load(scene)
-    values, shape = _axes(base, params, grid)
-    n = int(np.prod(shape))
-    from .api import resolve
+    members, shape = _members(base, params, grid, in_memory=out is None)
+    return study(base, members, shape, method=method, options=options, controls=controls,
+                 metrics=metrics, out=out, overwrite=overwrite, executor=executor,
+                 task_size=task_size, progress=progress)
 
+
+def _members(base: Scene, params, grid: bool, in_memory: bool):
+    """The sweep's members (:class:`Arrays` or :class:`Grid`) and its shape."""
+    if not isinstance(params, dict) or not params:
+        raise SceneError("params", "a sweep needs a dict of dotted scene paths to arrays of values")
+    raw = {}
+    for path, vals in params.items():
+        _check_path(base, str(path))
+        raw[path] = _to_numbers(base, path, _sweep_values(str(path), vals, in_memory))
+    if grid:
+        if in_memory:
+            check_members(math.prod(a.size for a in raw.values()), "params")
+        g = Grid(raw)
+        return g, g.shape
+    sizes = {p: a.size for p, a in raw.items()}
+    if len(set(sizes.values())) != 1:
+        raise SceneError("params", f"sweep arrays must have equal lengths (or pass grid=True), got "
+                         + ", ".join(f"{p}: {n}" for p, n in sizes.items()))
+    return Arrays(raw), (next(iter(sizes.values())),)
+
+
+def study(base: Scene, members, shape: tuple, *, method, options: dict, controls: dict,
+          metrics, out, overwrite: bool, executor, task_size, progress):
+    """Solve ``members`` (:class:`Arrays`, :class:`Grid` or a sampler: ``n`` and
+    ``chunk(start, stop)``) of scene ``base`` in tasks (see :func:`sweep`)."""
+    from .api import resolve
+    from .chunks import run_tasks
+
+    start = time.perf_counter()
+    names = _metric_names(metrics)
+    _check_executor(executor)
+    n = members.n
     model = HybridModel(base)
     name, opts = resolve(base, method, options, model=model, members=n)
-    status = _validate(base, values, n)
-    metrics = _empty_metrics(base, n)
     decl = solvers.backend(name)
     batch_opts = {**{k: v for k, v in opts.items() if k != "n_samples"}, **controls}
-    if _batch_applies(decl, model, values, batch_opts):
-        _batch(decl, model, values, batch_opts, status, metrics, progress)
-    else:
+    batch = _batch_applies(decl, model, members.chunk(0, 1), batch_opts)
+    if not batch:
         name = resolve(base, method, options, model=model)[0]  # what each member's solve picks
-        _loop(base, values, method, options, status, metrics, progress)
-    wall = time.perf_counter() - start
-    return SweepResult(base, values, metrics, status, name, tuple(shape),
-                       {"wall_time": wall, "members": n, "failed": int(np.sum(status != "ok"))})
+    tasks = _tasks(base, members, (decl.name, batch_opts) if batch else (method, options),
+                   batch, names, task_size, executor)
+    bar = _progress(n, progress)
+    try:
+        if out is None:
+            sink = _Memory(base, n, names)
+            run_tasks(tasks, sink, executor=executor, progress=bar.update)
+        else:
+            sink = _write_parquet(out, overwrite, tasks, base, name, shape, executor, bar)
+    finally:
+        bar.close()
+    stats = {"wall_time": time.perf_counter() - start, "members": n}
+    if out is None:
+        stats["failed"] = int(np.sum(sink.status != "ok"))
+        return SweepResult(base, members.chunk(0, n), sink.metrics, sink.status, name,
+                           tuple(shape), stats)
+    from .parquet import SweepFile
+    stats["failed"] = sum(sink.reasons.values())
+    return SweepFile(Path(out), base, tuple(members.chunk(0, 1)), names, name, tuple(shape),
+                     stats, dict(sink.reasons))
+
+
+def _tasks(base, members, solver: tuple, batch: bool, names: tuple, size, executor):
+    """``(start, Task)`` of every chunk, built lazily (a chunk's values only when it is due)."""
+    from .chunks import Task, task_size
+
+    n = members.n
+    size = size or task_size(n, executor, batch)
+    method, options = solver
+    for a in range(0, n, size):
+        yield a, Task(base, method, options, batch, members.chunk(a, min(n, a + size)), names)
+
+
+class _Memory:
+    """The consumer of :func:`lsc.chunks.run_tasks` that fills whole arrays (n members)."""
+
+    def __init__(self, scene: Scene, n: int, names: tuple):
+        from .chunks import empty_metrics
+
+        self.metrics = empty_metrics(scene, n, names)
+        self.status = np.full(n, "ok", dtype=object)
+
+    def __call__(self, start: int, task, result: dict) -> None:
+        stop = start + len(task)
+        for name, arr in result["metrics"].items():
+            self.metrics[name][start:stop] = arr
+        self.status[start:stop] = result["status"]
+
+
+def _write_parquet(out, overwrite, tasks, base, name, shape, executor, bar):
+    """Run ``tasks`` into the Parquet file ``out`` (whole or not at all: written under a
+    temporary name, moved into place at the end); returns the sink (its counts)."""
+    from .chunks import run_tasks
+    from .outputs import write_file
+    from .parquet import ParquetSink, require_pyarrow
+
+    require_pyarrow("out")
+    sinks = []
+
+    def write(file):
+        sink = ParquetSink(file, base, name, shape)
+        sinks.append(sink)
+        try:
+            run_tasks(tasks, sink, executor=executor, progress=bar.update)
+        finally:
+            sink.close()
+
+    write_file(out, write, overwrite=overwrite)
+    return sinks[0]
+
+
+def _metric_names(metrics) -> tuple:
+    """The metrics kept: all of :data:`lsc.result.METRICS` (``None``), or those named."""
+    if metrics is None:
+        return tuple(METRICS)
+    names = (metrics,) if isinstance(metrics, str) else tuple(metrics)
+    for m in names:
+        if m not in METRICS:
+            raise SceneError("metrics", f"unknown metric {m!r}; the metrics are "
+                                        f"{', '.join(METRICS)}")
+    if not names:
+        raise SceneError("metrics", "name at least one metric (or None: all)")
+    return tuple(m for m in METRICS if m in names)
+
+
+def _check_executor(executor) -> None:
+    """``None`` or an object with a callable ``submit`` (a ``SceneError`` otherwise)."""
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise SceneError("executor", "executor must be a concurrent.futures.Executor (a "
+                                     "ProcessPoolExecutor, a dask.distributed.Client: anything "
+                                     f"with submit), or None; got {type(executor).__name__}")
 
 
 def _check_count(name: str, value) -> None:
-    """A positive whole number of ``sweep`` (``chunk``, ``workers``), or a ``SceneError``."""
+    """A positive whole number (``chunk``, ``workers``, ``task_size``), or a ``SceneError``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
             or value < 1:
         raise SceneError(name, f"{name} must be a positive integer, got {value!r}")
@@ -408,56 +462,5 @@ def _batch_applies(decl, model: HybridModel, values: dict, options: dict) -> boo
     it takes every option (and batch control) given (:func:`lsc.parameters.batch_params`, tried
     on the first member)."""
     return (not decl.missing(model, batch=True) and decl.available()
-            and parameters.batch_params(model, {p: v[:1] for p, v in values.items()}) is not None
+            and parameters.batch_params(model, values) is not None
             and set(options) <= set(decl.batch_options))
-
-
-def _batch(decl, model, values, options, status, metrics, progress) -> None:
-    """The valid members at once through backend ``decl``'s ``solve_batch``: their metrics,
-    and their status (``"ok"`` or the single solve's message)."""
-    run = np.flatnonzero(status == "ok")
-    if run.size == 0:
-        return
-    bar = _progress(run.size, progress)
-    try:
-        out = decl.solve_batch(model, {p: v[run] for p, v in values.items()},
-                               progress=bar.update, **options)
-    finally:
-        bar.close()
-    for name in metrics:
-        metrics[name][run] = out["metrics"][name]
-    status[run] = out["status"]
-
-
-def _loop(base, values, method, options, status, metrics, progress):
-    """Members one by one, as ``lsc.solve`` would do each (re-validated by the loader, with the
-    member's own solver settings)."""
-    n = status.size
-    bar = _progress(n, progress)
-    try:
-        for j in range(n):
-            bar.update(1)
-            if status[j] == "ok":
-                _solve_member(base, values, j, method, options, status, metrics)
-    finally:
-        bar.close()
-
-
-def _solve_member(base, values, j, method, options, status, metrics) -> None:
-    """Member ``j`` solved alone, as ``lsc.solve`` would (re-validated by the loader, with its
-    own solver settings): its metrics, or its error in ``status``."""
-    from .api import resolve
-
-    member = {p: float(v[j]) for p, v in values.items()}
-    try:
-        sc = base.with_values(member)
-        backend, opts = resolve(sc, method, {"n_samples": 2, **options})
-        r = solvers.run(HybridModel(sc), backend, opts)
-    except (SceneError, SimulationError) as e:
-        status[j] = f"{type(e).__name__}: {e}"
-        for name in metrics:
-            metrics[name][j] = np.nan
-        return
-    status[j] = "ok"
-    for name in metrics:
-        metrics[name][j] = getattr(r, name)

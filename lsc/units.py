@@ -1,7 +1,7 @@
 """The units boundary: quantities given with units → plain floats in a scene's unit system.
 
 Scenes give quantities as bare numbers (already in the scene's system, see
-:data:`lsc.scene.UNITS`) or as strings with units (``"10 ft/s"``, ``"16 km/h"``, ``"3500 lbf"``,
+:data:`UNITS`) or as strings with units (``"10 ft/s"``, ``"16 km/h"``, ``"3500 lbf"``,
 ``"24000 lbf/ft"``, ``"1.2 in"``). Only this module talks to pint; its registry is created on first
 use (creating it takes a fraction of a second) and conversion factors are cached per unit string,
 so converting ``"12 ft/s"`` after ``"10 ft/s"`` costs a regex match and a multiplication.
@@ -16,9 +16,25 @@ from typing import Any
 
 from .errors import SceneError
 
-__all__ = ["to_system", "unit_factor", "registry", "parse_number", "KIND_EXAMPLES", "QUANTITY_FORM"]
+__all__ = ["to_system", "unit_factor", "registry", "parse_number", "KIND_EXAMPLES", "QUANTITY_FORM",
+           "UNITS", "STANDARD_G", "register_kind"]
 
 _REGISTRY = None
+
+#: Unit of each kind of quantity in each unit system (pint spelling).
+UNITS: dict[str, dict[str, str]] = {
+    "SI": {"length": "m", "time": "s", "mass": "kg", "force": "N", "velocity": "m/s",
+           "acceleration": "m/s^2", "stiffness": "N/m", "energy": "J", "damping": "N*s/m",
+           "slowness": "s/m", "damping_per_length": "N*s/m^2",
+           "dimensionless": ""},
+    "US": {"length": "ft", "time": "s", "mass": "slug", "force": "lbf", "velocity": "ft/s",
+           "acceleration": "ft/s^2", "stiffness": "lbf/ft", "energy": "ft*lbf",
+           "damping": "lbf*s/ft", "slowness": "s/ft", "damping_per_length": "lbf*s/ft^2",
+           "dimensionless": ""},
+}
+
+#: Standard gravity in each unit system (used for weight → mass unless the scene sets ``g``).
+STANDARD_G = {"SI": 9.80665, "US": 32.174}
 
 #: Examples shown in error messages for each kind of quantity.
 KIND_EXAMPLES: dict[str, tuple[str, ...]] = {
@@ -84,9 +100,18 @@ def registry():
     return _REGISTRY
 
 
-def _target(kind: str, system: str) -> str:
-    from .scene import UNITS
+def register_kind(kind: str, si: str, us: str, examples: tuple[str, ...]) -> str:
+    """Add a kind of quantity (a contact law's or effect's own unit, such as force/length^n):
+    its unit in SI and in US units (pint spelling) and examples for error messages; a kind
+    already known is left as it is. Returns ``kind``."""
+    if kind not in UNITS["SI"]:
+        UNITS["SI"][kind] = si
+        UNITS["US"][kind] = us
+        KIND_EXAMPLES[kind] = tuple(examples)
+    return kind
 
+
+def _target(kind: str, system: str) -> str:
     return UNITS[system][kind]
 
 
@@ -135,7 +160,7 @@ def _describe(dim: tuple) -> str:
     return f"of dimension {text}"
 
 
-#: Names of the kinds whose key in :data:`lsc.scene.UNITS` is not plain English.
+#: Names of the kinds whose key in :data:`UNITS` is not plain English.
 _KIND_NAMES = {"slowness": "time per length", "damping_per_length": "damping per length"}
 
 
@@ -203,7 +228,7 @@ def to_system(value, kind: str, system: str, path: str, *, hint: str | None = No
 
     ``value`` is a bare number (taken to be in the system's unit of ``kind`` already), a string
     ``"<number> <unit>"`` (``"10 ft/s"``; ``"10"`` alone is a bare number) or a pint quantity.
-    ``kind`` is a key of :data:`lsc.scene.UNITS` (``"velocity"``, ``"force"``, ...).
+    ``kind`` is a key of :data:`UNITS` (``"velocity"``, ``"force"``, ...).
     Raises :class:`SceneError` at ``path`` for booleans, non-numbers, NaN/inf, unknown units and
     quantities of the wrong dimension (``hint`` is added when a mass is given for a force).
     """

@@ -2,13 +2,17 @@
 against the closed form (linear scenes) and against finite differences of the exact backends
 (tables, damping laws, brakes, chains)."""
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
 import lsc
 from helpers import HARD, NONLINEAR, paper_scene, two_cars
 from lsc.analysis import default_params, sensitivity
+from lsc.contact import kelvin_restitution
 from lsc.curves import Curve
+from lsc.laws import Param, SpringDashpotLaw, register_law, unregister_law
 
 pytest.importorskip("diffrax")
 
@@ -305,3 +309,263 @@ def test_bad_finite_difference_step_is_refused(step):
 def test_unknown_keyword_is_a_type_error_naming_it():
     with pytest.raises(TypeError, match="unexpected keyword argument 'rtoll'"):
         sensitivity(paper_scene(), rtoll=1e-13)
+
+
+def test_sensitivity_reaches_the_diffrax_backend_only_by_its_public_names():
+    """The analysis modules read nothing of the diffrax backend but the names its public
+    surface (``lsc.solvers.diffrax_ode.api.__all__``) gives."""
+    import ast
+    from pathlib import Path
+
+    from lsc.solvers.diffrax_ode import api
+
+    folder = Path(lsc.__file__).parent / "analysis"
+    used = {}
+    for path in folder.glob("*sensitivity*.py"):
+        tree = ast.parse(path.read_text())
+        aliases = {a.asname or a.name for node in ast.walk(tree)
+                   if isinstance(node, ast.ImportFrom) and (node.module or "").endswith("solvers")
+                   for a in node.names if a.name == "diffrax_ode"}
+        used[path.name] = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)
+                           and isinstance(node.value, ast.Name) and node.value.id in aliases}
+    assert any(used.values())   # the autodiff path does use the backend
+    for name, attrs in used.items():
+        assert attrs <= set(api.__all__), (name, attrs - set(api.__all__))
+
+
+# ---------------------------------------------------------------------------- tangents
+# A frozen copy of the tangents as lsc.analysis built them by hand, path by path and law by law,
+# before the parameter layer gave them (issue 12, item 5): the parameter layer's must equal them.
+def _old_dlne_dzeta(z):
+    import math
+    if abs(z - 1.0) < 1e-6:
+        h = 1e-4
+        return float((np.log(kelvin_restitution(z + h))
+                      - np.log(kelvin_restitution(z - h))) / (2 * h))
+    if z < 1:
+        s2 = 1.0 - z * z
+        return -2.0 * (math.acos(z) / s2 ** 1.5 - z / s2)
+    s2 = z * z - 1.0
+    return -2.0 * (z / s2 - math.acosh(z) / s2 ** 1.5)
+
+
+def _old_zeros(tree):
+    if isinstance(tree, dict):
+        return {k: _old_zeros(v) for k, v in tree.items()}
+    if isinstance(tree, list):
+        return [_old_zeros(v) for v in tree]
+    return np.zeros(np.shape(tree))
+
+
+def _old_mu(model):
+    m = np.asarray(model.params["m"], float)
+    return m[:-1] * m[1:] / (m[:-1] + m[1:])
+
+
+def _old_kelvin_mass(model, T, i, dm):
+    m = np.asarray(model.params["m"], float)
+    mu = _old_mu(model)
+    for k, law in enumerate(model.laws):
+        if getattr(law, "name", "") != "kelvin" or law.spec.restitution is not None:
+            continue
+        if i not in (k, k + 1):
+            continue
+        other = m[k + 1] if i == k else m[k]
+        dmu = (other / (m[k] + m[k + 1])) ** 2 * dm
+        z = float(model.params["contacts"][k]["zeta"])
+        T["contacts"][k]["zeta"] = np.asarray(float(T["contacts"][k]["zeta"]) - 0.5 * z / mu[k] * dmu)
+
+
+def _old_tangent(model, sc, prm):
+    import math
+    p = model.params
+    T = _old_zeros(p)
+    parts = prm.path.split(".")
+    i, rest = int(parts[1]), tuple(parts[2:])
+    if parts[0] == "vehicles":
+        if rest in (("mass",), ("weight",)):
+            dm = 1.0 if rest[0] == "mass" else 1.0 / sc.g
+            T["m"][i] = dm
+            _old_kelvin_mass(model, T, i, dm)
+        elif rest == ("speed",):
+            T["v0"][i] = 1.0
+        else:
+            j = [b.i for b in model.brakes].index(i)
+            src = sc.source["vehicles"][i].get("brake", {}) if sc.source else {}
+            if rest[1] == "mu":
+                T["brakes"][j]["mu"] = np.asarray(1.0)
+                if "mu_static" not in src:
+                    T["brakes"][j]["mus"] = np.asarray(1.0)
+            else:
+                T["brakes"][j]["mus"] = np.asarray(1.0)
+        return T
+    cp, ct = p["contacts"][i], T["contacts"][i]
+    law = sc.contacts[i].law
+    if rest == ("gap",):
+        T["gap"][i] = 1.0
+    elif rest in (("loading", "stiffness"), ("loading", "scale")):
+        for key in ("lf", "ls", "le"):
+            ct[key] = np.asarray(cp[key], float) / prm.value
+    elif rest == ("unloading", "restitution"):
+        ct["e"] = np.asarray(1.0)
+    elif rest == ("unloading", "stiffness"):
+        ct["su"] = np.asarray(1.0)
+    elif rest == ("stiffness",):
+        ct["k"] = np.asarray(1.0)
+        if law.law == "kelvin" and law.restitution is None:
+            ct["zeta"] = np.asarray(-0.5 * float(cp["zeta"]) / law.stiffness)
+    elif rest == ("restitution",):
+        e = law.restitution
+        if law.law == "kelvin":
+            ct["zeta"] = np.asarray(1.0 / (e * _old_dlne_dzeta(float(cp["zeta"]))))
+        else:
+            a = float(cp["a"])
+            R_a = (1 + e) - 1 / (1 + a) - e / (1 - a * e)
+            R_e = a - a / (1 - a * e)
+            ct["a"] = np.asarray(-R_e / R_a if a > 1e-6 else -1.5)
+    elif rest == ("damping",):
+        if law.law == "kelvin":
+            ct["zeta"] = np.asarray(float(cp["zeta"]) / law.damping if law.damping > 0 else
+                                    1.0 / (2.0 * math.sqrt(law.stiffness * _old_mu(model)[i])))
+        elif law.law == "hunt-crossley":
+            ct["alpha"] = np.asarray(1.0)
+        else:
+            ct["c1"] = np.asarray(1.0)
+    elif rest == ("damping_restitution",):
+        ct["c2"] = np.asarray(1.0)
+    elif rest == ("exponent",):
+        ct["n"] = np.asarray(1.0)
+    return T
+
+
+def _leaves(tree, at=""):
+    if isinstance(tree, dict):
+        return [x for k, v in sorted(tree.items()) for x in _leaves(v, f"{at}.{k}")]
+    if isinstance(tree, list):
+        return [x for k, v in enumerate(tree) for x in _leaves(v, f"{at}.{k}")]
+    return [(at, np.asarray(tree, float))]
+
+
+def _damped(law, **keys):
+    return {"units": "US", "g": "32.2 ft/s^2",
+            "vehicles": [{"weight": 3500, "speed": 10}, {"weight": 3000, "speed": 0}],
+            "contacts": [{"law": law, "stiffness": 24000, **keys}]}
+
+
+TANGENT_SCENES = {
+    "linear": (two_cars(1500.0, 1100.0, 5.0, 1.0, {"stiffness": 2.4e5}, {"restitution": 0.4},
+                        gap=0.02), ["contacts.0.gap"]),
+    "table": (two_cars(1500.0, 1100.0, 6.0, 0.5, {"table": TABLE, "scale": 1.3},
+                       {"stiffness": 9e5}), []),
+    "kelvin e": (_damped("kelvin", restitution=0.4), []),
+    "kelvin e=1": (_damped("kelvin", restitution=1.0), []),
+    "kelvin c": (_damped("kelvin", damping=300), []),
+    "kelvin c=0": (_damped("kelvin", damping=0), []),
+    "hunt-crossley e": (_damped("hunt-crossley", restitution=0.5, exponent=1.5),
+                        ["contacts.0.exponent"]),
+    "hunt-crossley e=1": (_damped("hunt-crossley", restitution=1.0), []),
+    "hunt-crossley alpha": (_damped("hunt-crossley", damping=0.02), ["contacts.0.exponent"]),
+    "brach c2": (_damped("brach", damping=20, damping_restitution=40), []),
+    "braked": ({"units": "SI", "vehicles": [{"mass": 1500, "speed": 3.0,
+                                             "brake": {"mu": 0.6}},
+                                            {"mass": 1200, "speed": 0.0,
+                                             "brake": {"mu": 0.7, "mu_static": 0.8}}],
+                "contacts": [{"loading": {"stiffness": 2e5}, "unloading": {"restitution": 0.4}}]},
+               ["vehicles.1.brake.mu_static", "vehicles.0.brake.mu_static"]),
+    "chain": ({"units": "SI", "vehicles": [{"mass": 1500, "speed": 3.0}, {"weight": 12000, "speed": 0.0},
+                                           {"mass": 1000, "speed": 0.0}],
+               "contacts": [{"law": "kelvin", "stiffness": 1e5, "damping": 2000},
+                            {"law": "kelvin", "stiffness": 2e5, "damping": 1000, "gap": 0.05}]},
+              ["contacts.1.gap"]),
+}
+
+
+@pytest.mark.parametrize("case", TANGENT_SCENES)
+def test_tangents_of_the_parameter_layer_equal_the_hand_written_ones(case):
+    """∂ model.params / ∂ path from the parameter layer (jax.jvp of the laws' and effects'
+    declared numbers, the target-restitution conversions by their declared derivatives) equals
+    the frozen hand-written tangent on every law and path it handled."""
+    from lsc.analysis.sensitivity import _describe, _tangent
+    from lsc.model import HybridModel
+    scene, extra = TANGENT_SCENES[case]
+    sc = lsc.Scene.load(scene)
+    model = HybridModel(sc)
+    for path in default_params(scene) + extra:
+        prm = _describe(sc, path)
+        new, old = _leaves(_tangent(model, sc, prm)), _leaves(_old_tangent(model, sc, prm))
+        assert [k for k, _ in new] == [k for k, _ in old], path
+        assert any(np.any(v != 0) for _, v in new), path
+        for (key, a), (_, b) in zip(new, old):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=0, err_msg=f"{path}: {key}")
+
+
+def test_a_post_failure_loading_curve_has_no_tangent():
+    scene = two_cars(1500.0, 1100.0, 6.0, 0.5, {"table": TABLE}, {"restitution": 0.3},
+                     failure={"force": 20000, "post_failure": {"stiffness": 1e5}})
+    with pytest.raises(lsc.SceneError, match="finite-difference") as info:
+        sensitivity(scene, ["contacts.0.loading.scale"])
+    assert str(info.value).startswith("contacts.0.loading.scale: ")
+
+
+@dataclass(frozen=True)
+class _ZetaSpec(lsc.laws.Damping):
+    """The toy law's record: a spring–dashpot description with its own key."""
+
+    ratio: float = 0.0
+
+
+class _ZetaLaw(SpringDashpotLaw):
+    """A toy Kelvin law given by its damping ratio: ``F = k D + c Ḋ``, ``c = 2ζ√(kμ)`` (its
+    numbers depend on the masses, through a construction declared here only)."""
+
+    name = "toy-zeta"
+    params_declared = (
+        Param("stiffness", "stiffness", "k", minimum=0.0),
+        Param("ratio", "dimensionless", "the damping ratio ζ", minimum=0.0))
+    depends_on_mass = True
+    affine_force = True
+
+    @classmethod
+    def describe(cls, values):
+        return _ZetaSpec(cls.name, **values)
+
+    @staticmethod
+    def build(values, mu, xp):
+        k = xp.asarray(values["stiffness"], float)
+        return {"k": k, "cz": 2.0 * xp.asarray(values["ratio"], float) * xp.sqrt(k * mu)}
+
+    def at_contact(self, st, Ddot, p, xp, mu):
+        return {"c": xp.asarray(p["cz"], float)}
+
+    def spring_force(self, D, Ddot, st):
+        return st["k"] * D + st["c"] * Ddot
+
+
+@pytest.fixture
+def zeta_law():
+    register_law(_ZetaLaw)
+    yield _ZetaLaw
+    unregister_law("toy-zeta")
+
+
+def test_a_registered_toy_law_gets_sensitivities_without_touching_the_analyses(zeta_law):
+    """A law the analyses never heard of: its tangents come from its declared numbers alone,
+    and the autodiff derivatives match finite differences of the SciPy solve; ΔV and the pulse
+    follow Kelvin's closed form (ζ fixed: ΔV2 = (1+e) m1 vc/(m1+m2) with e(ζ))."""
+    m1, m2, v1, zeta = 1500.0, 1200.0, 4.0, 0.3
+    scene = {"units": "SI", "vehicles": [{"mass": m1, "speed": v1}, {"mass": m2, "speed": 0.0}],
+             "contacts": [{"law": "toy-zeta", "stiffness": 2e5, "ratio": zeta}]}
+    params = default_params(scene)
+    assert params == ["vehicles.0.mass", "vehicles.0.speed", "vehicles.1.mass", "vehicles.1.speed",
+                      "contacts.0.stiffness", "contacts.0.ratio"]
+    metrics = ("delta_v", "peak_acceleration", "duration", "peak_force", "max_deformation")
+    a = sensitivity(scene, params, metrics=metrics)
+    b = sensitivity(scene, params, metrics=metrics, method="finite-difference", backend="scipy",
+                    rtol=1e-13)
+    assert_matches(a, b, metrics)
+    e = float(kelvin_restitution(zeta))
+    de = e * _old_dlne_dzeta(zeta)                    # de/dζ = e · d ln e/dζ
+    assert a.derivative("delta_v", "contacts.0.ratio", 1) == pytest.approx(
+        m1 * v1 / (m1 + m2) * de, rel=1e-7)
+    assert a.derivative("delta_v", "vehicles.0.speed", 1) == pytest.approx(
+        (1 + e) * m1 / (m1 + m2), rel=1e-8)

@@ -209,7 +209,8 @@ def test_unknown_keyword_is_refused_by_name():
         monte_carlo(paper_scene(), UNIFORM, 10, sed=1)
     assert e.value.path == "sed"
     assert str(e.value).startswith("sed: monte_carlo() got an unknown keyword 'sed'; it accepts "
-                                   "seed, method, progress, percentiles and the solver options ")
+                                   "seed, method, progress, percentiles, metrics, out, overwrite, "
+                                   "executor, task_size and the solver options ")
 
 
 def test_bumper_failure_at_a_preloaded_tables_step_is_kept():

@@ -55,7 +55,9 @@ def test_reading_the_declarations_imports_no_jax():
     (two_cars(loading={"table": [[0, 0], [0.5, 20000], [1.0, 24000]]}), "exact"),
     (chain(3), "scipy"),
     (two_cars(law="kelvin", loading=None, unloading=None, stiffness=24000.0, restitution=0.4),
-     "scipy"),
+     "closed-form"),
+    (two_cars(law="hunt-crossley", loading=None, unloading=None, stiffness=24000.0,
+              restitution=0.4), "scipy"),
 ])
 def test_auto_picks_the_cheapest_exact_backend_that_declares_the_scene(scene, expected):
     scene["contacts"][0] = {k: v for k, v in scene["contacts"][0].items() if v is not None}

@@ -105,6 +105,22 @@ def test_a_member_the_stepper_cannot_complete_gets_the_single_solves_message():
     assert "table" in out["status"][2]
 
 
+def test_exact_batch_restitution_of_a_pushed_shut_member_is_not_applicable():
+    """The batch's metrics are lsc.metrics' (the first-impact record carried through the
+    stepper): a member touching at t = 0 at a closing speed of rounding (at most
+    lsc.metrics.PUSHED of its speed) is pushed shut, its restitution NaN as in the single
+    solve, while a struck member's is separation over closing speed (Eq. 9)."""
+    scene = _scene(TABLE, {"restitution": 0.5}, gap=0.0)
+    values = {"vehicles.0.speed": np.array([3.0, 3.0, 3.0]),
+              "vehicles.1.speed": np.array([0.0, 3.0 - 1e-9, 3.0 - 1e-3])}
+    out, counts = _batch("exact", scene, values)
+    assert _assert_members_are_single_solves(out, scene, values, "exact") == 3
+    e = out["metrics"]["restitution"][:, 0]
+    assert np.isnan(e[1]) and np.isfinite(e[[0, 2]]).all()
+    vf = out["metrics"]["v_final"]
+    assert e[0] == pytest.approx((vf[0, 1] - vf[0, 0]) / 3.0, rel=1e-14)
+
+
 def test_braked_scene_is_refused_by_the_exact_batch_and_swept_one_by_one():
     scene = _scene(TABLE, {"restitution": 0.5})
     scene["vehicles"][1]["brake"] = {"mu": 0.7}

@@ -11,9 +11,10 @@ pytest.importorskip("diffrax")
 
 import lsc  # noqa: E402
 from lsc.model import HybridModel  # noqa: E402
+from lsc.result import METRICS as RESULT_METRICS  # noqa: E402
 from lsc.scene import Scene  # noqa: E402
 from lsc.solvers import closed_form, scipy_ode  # noqa: E402
-from lsc.solvers.diffrax_ode import _impl as dx  # noqa: E402
+from lsc.solvers.diffrax_ode import api as dx, core, single  # noqa: E402
 from helpers import NONLINEAR, max_rel_error as _rel, two_cars  # noqa: E402
 
 METRICS = ("delta_v", "duration", "peak_force", "max_deformation")
@@ -120,9 +121,9 @@ def test_a_solve_that_fills_the_small_record_runs_again_with_the_full_one(monkey
     model = _model(two_cars(1500.0, 900.0, 4.0, 0.0, {"stiffness": 30000.0}, {"restitution": 0.6}))
     full = dx.solve(model, integrator="Tsit5", rtol=1e-10, max_steps=64)
     assert full.stats["steps"] > 16
-    monkeypatch.setattr(dx, "RECORD_NODES", 16)   # fewer nodes than the solve's steps
+    monkeypatch.setattr(single, "RECORD_NODES", 16)   # fewer nodes than the solve's steps
     r = dx.solve(model, integrator="Tsit5", rtol=1e-10, max_steps=64)
-    assert any(key[1:] == ("Tsit5", 64, 256, 16) for key in dx._CORES)  # it was tried first
+    assert any(key[1:] == ("Tsit5", 64, 256, 16) for key in core._CORES)  # it was tried first
     assert r.stats["steps"] == full.stats["steps"]
     for name in METRICS:
         assert np.array_equal(getattr(r, name), getattr(full, name)), name
@@ -162,7 +163,7 @@ def test_batch_equals_single_solves():
     pb = dict(model.params)
     pb["v0"] = np.stack([v, np.zeros_like(v)], axis=1)
     pb["contacts"] = [dict(model.params["contacts"][0], e=e)]
-    res = dx.solve_batch(model, pb, rtol=1e-11)
+    res = dx.solve_params(model, pb, rtol=1e-11)
     assert list(res["status"]) == [0, 0, 0, 0, 1]
     assert "ends before" in res["message"][-1] and np.isnan(res["delta_v"][-1]).all()
     for j in range(4):
@@ -201,8 +202,8 @@ def test_effects_match_scipy_and_batch_peaks_between_events(name):
         assert r.failed[0] and "failure" in [ev.kind for ev in r.events]
     # the metrics solve finds the peaks between events (Kelvin: before the max deformation) at
     # least as high as the sampled series, and within the series' sampling error
-    batch = dx.solve_batch(model, {**model.params, "v0": np.asarray(model.params["v0"])[None]},
-                           rtol=1e-12, **opts)
+    batch = dx.solve_params(model, {**model.params, "v0": np.asarray(model.params["v0"])[None]},
+                            rtol=1e-12, **opts)
     assert batch["status"][0] == 0
     for q in ("delta_v", "duration", "max_deformation", "energy_absorbed", "failure_time"):
         assert np.allclose(batch[q][0], getattr(r, q), rtol=1e-12, atol=0, equal_nan=True), q
@@ -213,4 +214,65 @@ def test_effects_match_scipy_and_batch_peaks_between_events(name):
 
 def test_import_lsc_does_not_import_jax():
     code = "import sys, lsc; sys.exit(any(m in sys.modules for m in ('jax', 'diffrax')))"
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def _single_metrics(scene, values, j, **opts):
+    """Member ``j`` of ``values`` solved alone by ``lsc.solve``: its metrics, or the
+    ``"SimulationError: ..."`` status the batch must give it."""
+    member = Scene.load(scene).with_values({p: float(v[j]) for p, v in values.items()})
+    try:
+        r = lsc.solve(member, method="diffrax", **opts)
+    except lsc.SimulationError as exc:
+        return None, f"SimulationError: {exc}"
+    return {name: getattr(r, name) for name in RESULT_METRICS}, "ok"
+
+
+def _assert_batch_is_single_solves(scene, values, batch, **opts):
+    n = len(next(iter(values.values())))
+    assert set(batch["metrics"]) == set(RESULT_METRICS)
+    for j in range(n):
+        single, status = _single_metrics(scene, values, j, **opts)
+        assert batch["status"][j] == status, j
+        for name, arr in batch["metrics"].items():
+            assert arr.shape[0] == n
+            if single is None:
+                assert np.all(np.isnan(arr[j])), (j, name)
+            else:
+                assert np.allclose(arr[j], single[name], rtol=1e-9, atol=0, equal_nan=True), \
+                    (j, name)
+
+
+def test_solve_batch_through_the_contract_equals_single_solves():
+    # chunks of 2 run in 2 threads, in the work order (by kinetic energy over the table's
+    # capacity): each member's metrics must still land on that member; 30 m/s runs off the
+    # end of the table and gets the single solve's error
+    scene = two_cars(1600.0, 1200.0, 6.0, 0.0, NONLINEAR, {"restitution": 0.5})
+    values = {"vehicles.0.speed": np.array([6.0, 30.0, 0.5, 4.0, 2.0]),
+              "contacts.0.unloading.restitution": np.array([0.6, 0.5, 0.0, 0.3, 1.0])}
+    done = []
+    batch = lsc.solvers.backend("diffrax").solve_batch(
+        _model(scene), values, rtol=1e-11, chunk=2, workers=2, progress=done.append)
+    assert batch["status"][0] == "ok"
+    assert batch["status"][1].startswith("SimulationError: contact 0 at t = ")
+    assert "ends before the vehicles reach a common" in batch["status"][1]
+    assert sum(done) == 5
+    _assert_batch_is_single_solves(scene, values, batch, rtol=1e-11)
+
+
+def test_solve_batch_reloads_paths_the_parameters_cannot_set():
+    # a Kelvin restitution sets the damping ratio through the loader (no parameter setter):
+    # each member is re-loaded, and still solved in one batch
+    scene = _effect_scenes()["kelvin"][0]
+    values = {"contacts.0.restitution": np.array([0.2, 0.451, 0.8]),
+              "vehicles.0.speed": np.array([3.0, 5.0, 2.0])}
+    batch = lsc.solvers.backend("diffrax").solve_batch(_model(scene), values, rtol=1e-12)
+    assert list(batch["status"]) == ["ok"] * 3
+    _assert_batch_is_single_solves(scene, values, batch, rtol=1e-12)
+
+
+def test_the_declaration_imports_no_jax():
+    code = ("import sys, lsc.solvers, lsc.solvers.diffrax_ode as d; "
+            "b = lsc.solvers.backend('diffrax'); assert b.module == d.__name__ + '.api'; "
+            "sys.exit(any(m in sys.modules for m in ('jax', 'diffrax')))")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0

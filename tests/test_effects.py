@@ -63,6 +63,35 @@ def test_hunt_crossley_restitution_relation(n, e):
     assert r2.restitution_energy[0] == pytest.approx(e, abs=1e-8)
 
 
+# ------------------------------------------------------------------ target-restitution derivatives
+@pytest.mark.parametrize("law, key, conv", [("KelvinLaw", "zeta", "kelvin_zeta"),
+                                            ("HuntCrossleyLaw", "a", "hunt_crossley_a")])
+def test_target_restitution_numbers_trace_with_their_declared_derivative(law, key, conv):
+    """A law's numbers built from a target restitution (a root find on NumPy) trace under JAX:
+    the values are the NumPy construction's, under jit and vmap, and jax.jvp gives the
+    derivative the law declares (implicit function theorem) = differences of the converter."""
+    jax = pytest.importorskip("jax")
+    jnp = jax.numpy
+    import lsc.contact as contact
+    from lsc import laws
+
+    cls, convert = getattr(laws, law), getattr(contact, conv)
+    values = {"stiffness": 1e5, "damping": None, "exponent": 1.0}
+    es = np.array([0.2, 0.6, 0.95])
+
+    def numbers(e):
+        return cls.build({**values, "restitution": e}, 1000.0, jnp)[key]
+
+    with jax.enable_x64(True):
+        got = np.asarray(jax.jit(jax.vmap(numbers))(jnp.asarray(es)))
+        slopes = [float(jax.jvp(numbers, (jnp.asarray(e),), (jnp.asarray(1.0),))[1]) for e in es]
+    assert got == pytest.approx([float(cls.build({**values, "restitution": e}, 1000.0, np)[key])
+                                 for e in es], rel=1e-14)
+    h = 1e-6
+    assert slopes == pytest.approx([(convert(e + h) - convert(e - h)) / (2 * h) for e in es],
+                                   rel=1e-6)
+
+
 # ------------------------------------------------------------------ Brach
 @pytest.mark.parametrize("c1, c2", [(0.0, 4e4), (2e4, 8e4), (5e4, 5e4)])
 def test_brach_restitution_against_its_energy_integral(c1, c2):
@@ -87,6 +116,38 @@ def test_damping_law_energy_balance():
     lost = r.energy_absorbed[0] - r.energy_returned[0]
     assert ke0 - ke1 == pytest.approx(lost, rel=1e-9)
     assert r.energy_absorbed[0] == pytest.approx(0.5 * MU * 9.0, rel=1e-9)
+
+
+def test_damping_law_batch_numbers_are_those_of_each_member_scene():
+    """A batch of swept masses and damping keys holds, member by member, the numbers of the
+    member's own scene: Kelvin's damping c = 2 ζ √(kμ) stays the scene's c when the masses
+    change (ζ follows μ), and the other laws' keys land where their scenes put them."""
+    from lsc import parameters
+
+    masses = np.array([700.0, 1400.0, 2800.0])
+    cases = [("kelvin", {"stiffness": 2.0e5, "damping": 4000.0}, {"vehicles.0.mass": masses}),
+             ("kelvin", {"stiffness": 2.0e5, "damping": 4000.0},
+              {"vehicles.1.mass": masses, "contacts.0.damping": [1e3, 2e3, 5e3]}),
+             ("hunt-crossley", {"stiffness": 2.0e5, "exponent": 1.5, "restitution": 0.5},
+              {"contacts.0.restitution": [0.3, 0.6, 0.9], "vehicles.0.mass": masses}),
+             ("brach", {"stiffness": 2.0e5, "damping": 1e4, "damping_restitution": 2e4},
+              {"contacts.0.damping": [0.0, 1e3, 1e4], "contacts.0.stiffness": [1e5, 2e5, 3e5]})]
+    for law, keys, values in cases:
+        base = lsc.Scene.load(damped(law, **keys))
+        values = {p: np.asarray(v, float) for p, v in values.items()}
+        batch = parameters.batch_params(HybridModel(base), values)
+        for j in range(3):
+            member = base.with_values({p: float(v[j]) for p, v in values.items()})
+            own = HybridModel(member).params
+            np.testing.assert_array_equal(batch["m"][j], own["m"])
+            for name, number in own["contacts"][0].items():
+                np.testing.assert_allclose(batch["contacts"][0][name][j], number, rtol=1e-15,
+                                           err_msg=f"{law} {name} member {j}")
+            if law == "kelvin":
+                m1, m2 = batch["m"][j]
+                c = 2 * batch["contacts"][0]["zeta"][j] * np.sqrt(
+                    batch["contacts"][0]["k"][j] * m1 * m2 / (m1 + m2))
+                assert c == pytest.approx(member.contacts[0].law.damping, rel=1e-14)
 
 
 # ------------------------------------------------------------------ braking
@@ -530,3 +591,45 @@ def test_a_scene_without_an_effect_evaluates_no_term_of_it(monkeypatch):
     assert calls == []
     lsc.solve(braked(2.0, mu1=0.7), method="scipy")
     assert "accel" in calls and "events" in calls
+
+
+def test_law_numbers_trace_under_jax_as_they_compute_on_numpy():
+    """A law builds its model numbers from its keys with array code: jitted with JAX it gives
+    the NumPy numbers (targets converted by a root find excepted: they are NumPy only)."""
+    jax = pytest.importorskip("jax")
+    import jax.numpy as jnp
+
+    from lsc.laws import make_law
+
+    jax.config.update("jax_enable_x64", True)  # as the JAX backend does
+
+    cases = [(lsc.Scene.load({"vehicles": [{"mass": M1, "speed": 3.0}, {"mass": M2, "speed": 0}],
+                              "contacts": [{"loading": {"table": [[0, 0], [0.1, 1e4], [0.3, 9e4]],
+                                                        "scale": 2.0},
+                                            "unloading": {"restitution": 0.4}}]}),
+              {"loading.scale": [1.0, 3.0], "unloading.restitution": [0.1, 0.7]}),
+             (lsc.Scene.load(damped("kelvin", stiffness=2.0e5, damping=4000.0)),
+              {"stiffness": [1e5, 3e5], "damping": [1e3, 8e3]}),
+             (lsc.Scene.load(damped("hunt-crossley", stiffness=2.0e5, exponent=1.5, damping=0.2)),
+              {"exponent": [1.0, 1.2], "damping": [0.1, 0.4]}),
+             (lsc.Scene.load(damped("brach", stiffness=2.0e5, restitution=0.5, damping=1e4)),
+              {"restitution": [0.3, 0.8], "damping": [0.0, 2e4]})]
+    mu = np.array([MU, 2 * MU])
+    for scene, changes in cases:
+        law = make_law(scene.contacts[0], MU)
+        changes = {k: np.asarray(v) for k, v in changes.items()}
+        on_numpy = law.numbers(changes, mu, np)
+        traced = jax.jit(lambda c, m: law.numbers(c, m, jnp))(changes, mu)
+        for name, value in on_numpy.items():
+            np.testing.assert_allclose(np.asarray(traced[name]), value, rtol=1e-15, atol=0,
+                                       err_msg=f"{law.name} {name}")
+
+
+def test_a_damping_law_key_swept_with_units_is_its_declared_unit():
+    """A swept damping key given with units is converted by the unit its law declares: each
+    member solves as the scene with that damping in scene units."""
+    base = damped("kelvin", stiffness=2.0e5, damping=4000.0)
+    s = lsc.sweep(base, {"contacts.0.damping": ["2 kN*s/m", "300 lbf*s/ft"]}, method="scipy")
+    for j, c in enumerate([2000.0, 300 * 4.4482216152605 / 0.3048]):
+        r = lsc.solve(damped("kelvin", stiffness=2.0e5, damping=c), method="scipy")
+        np.testing.assert_allclose(s.metrics["delta_v"][j], r.delta_v, rtol=1e-12)

@@ -779,3 +779,35 @@ def test_exact_matches_scipy_on_random_braked_scenes(d):
     assert np.max(np.abs(ex.v_final - sp.v_final)) <= 1e-9 * np.max(np.abs(sc.speeds))
     if any(e.kind == "contact" for e in ex.events):   # (a braked bullet may stop short)
         assert_metrics_close(ex, sp, sc.masses, 1e-9)
+
+
+# --------------------------------------------------------------------------- exact peaks
+@pytest.mark.parametrize("name", ["bullet stops and reverses in contact", "both braked",
+                                  "table, moving target braked, gap"])
+def test_exact_peaks_are_the_first_impacts_own(name):
+    """The exact peaks (the force's turning points inside braked segments included) are inputs
+    to the Result, so the first impact's record holds them as the headline metrics do: its
+    peak force and accelerations are the headline's, and no sampled force exceeds them."""
+    d, opts, _ = BRAKED[name]
+    r = exact.solve(HybridModel(lsc.Scene.load(d)), **opts)
+    first = r.impacts[0]
+    assert first.peak_force == r.peak_force[0]
+    assert first.peak_acceleration == tuple(r.peak_acceleration)
+    assert np.max(r.force[:, 0]) <= r.peak_force[0] * (1 + 1e-12)
+
+
+def test_end_of_a_near_plastic_rebound_line_is_no_force():
+    """A rebound line e² D_max wide (e = 1e-15) is ~1e29 times steeper than the loading: the
+    force at a segment's end is taken at the deformation clamped to the segment (a rounding
+    overshoot times that slope is no force), so the peaks stay the loading's at D_max,
+    F(D_max) on both vehicles (found by the batch-equals-single property test)."""
+    curve = Curve(np.array([0, 0.005, 0.01, 0.015, 0.02]),
+                  np.array([0, 100, 200, 163.56064117, 163.56064117]), 968465.1450820834)
+    m1, m2 = 765.2271151410102, 1211.0372515046993
+    sc = scene(m1, m2, 5.183021757364514, 0.0, curve, Restitution(1e-15), gap=0.05)
+    r = exact.solve(HybridModel(sc))
+    F = curve.force(r.max_deformation[0])
+    assert r.peak_force[0] == pytest.approx(F, rel=1e-12)
+    np.testing.assert_allclose(r.peak_acceleration, [-F / m1, F / m2], rtol=1e-12)
+    assert r.impacts[0].peak_force == r.peak_force[0]
+    assert np.all(np.abs(r.force) <= r.peak_force[0] * (1 + 1e-12))

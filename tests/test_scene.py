@@ -910,3 +910,50 @@ def test_unloading_branch_from_a_csv_equals_the_same_table(tmp_path):
         lsc.Scene.load(from_csv, base_dir=tmp_path)
     assert str(e.value) == ("contacts[0].unloading.csv: deformation must strictly decrease along "
                             "the rebound (in time order); point 1 has 0.2 after 0.1")
+
+
+# ----------------------------------------------------------------- import structure
+def _lsc_imports() -> dict:
+    """Module → the lsc modules it imports anywhere (module level or inside functions)."""
+    import ast
+    import pathlib
+
+    import lsc
+
+    root = pathlib.Path(lsc.__file__).parent
+    graph = {}
+    for file in root.rglob("*.py"):
+        rel = file.relative_to(root.parent).with_suffix("")
+        name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+        package = name if file.name == "__init__.py" else name.rsplit(".", 1)[0]
+        out = set()
+        for node in ast.walk(ast.parse(file.read_text("utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                base = package
+                for _ in range(node.level - 1):
+                    base = base.rsplit(".", 1)[0]
+                target = (f"{base}.{node.module}" if node.module else base) if node.level \
+                    else node.module or ""
+                out.add(target)
+            elif isinstance(node, ast.Import):
+                out.update(alias.name for alias in node.names)
+        graph[name] = {t for t in out if t.startswith("lsc")}
+    return graph
+
+
+def test_scene_units_laws_and_effects_are_in_no_import_circle():
+    """The scene loader reads units, laws and effects; none of them (nor the display of
+    speeds) imports the scene back, even inside a function."""
+    graph = _lsc_imports()
+    owners = sorted(m for m in graph if (m + ".").split(".")[1] in ("scene", "units", "laws", "effects",
+                                                              "contact", "display"))
+
+    def reaches(start, goal, seen):
+        for nxt in graph.get(start, ()):
+            nxt = nxt if nxt in graph else nxt.rsplit(".", 1)[0]
+            if nxt == goal or (nxt not in seen and not seen.add(nxt)
+                               and reaches(nxt, goal, seen)):
+                return True
+        return False
+    circles = [m for m in owners if reaches(m, m, set())]
+    assert circles == []

@@ -332,7 +332,8 @@ def test_unknown_keyword_and_bad_sweep_settings_are_refused():
     with pytest.raises(lsc.SceneError) as e:
         lsc.sweep(PAPER, {SPEED: [4.0]}, rtoll=1e-13)
     assert str(e.value) == ("rtoll: sweep() got an unknown keyword 'rtoll'; it accepts method, "
-                            "grid, progress, chunk, workers and the solver options atol, dt, "
+                            "grid, progress, chunk, workers, metrics, out, overwrite, executor, "
+                            "task_size and the solver options atol, dt, "
                             "first_step, integrator, max_events, max_steps, n_samples, rtol, t_end")
     for kw, message in [({"chunk": 0}, "chunk: chunk must be a positive integer, got 0"),
                         ({"workers": 1.5}, "workers: workers must be a positive integer, got 1.5"),

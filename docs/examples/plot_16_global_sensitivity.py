@@ -18,8 +18,9 @@ from lsc.analysis.cli import load_with_uncertainty
 
 # A Test 3-like crash: a piecewise-linear IF-D table, uncertain closing speed, target weight,
 # table force scale and restitution (docs/examples/test3_uncertainty.toml).
-scene, distributions = load_with_uncertainty(
-    str(Path(__file__).parent / "test3_uncertainty.toml"))
+# (sphinx-gallery runs the example from its own folder, where ``__file__`` is not set)
+here = Path(__file__).parent if "__file__" in globals() else Path.cwd()
+scene, distributions = load_with_uncertainty(str(here / "test3_uncertainty.toml"))
 g = global_sensitivity(scene, distributions, metrics=["delta_v", "peak_acceleration_g"],
                        n=1024, seed=2026)
 print(g.summary())

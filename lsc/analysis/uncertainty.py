@@ -1,32 +1,8 @@
-"""Monte Carlo uncertainty: scene parameters as distributions, solved with :func:`lsc.sweep`.
-
-Distributions map dotted scene paths to specs (a plain dict, e.g. a TOML ``[uncertainty]`` table
-that the caller reads beside the scene)::
-
-    {"vehicles.0.speed": {"uniform": ["4 ft/s", "8 ft/s"]},
-     "vehicles.1.weight": {"normal": [3500, 100]},             # optional "min", "max": truncated
-     "contacts.0.loading.scale": {"triangular": [0.9, 1.0, 1.2]},
-     "vehicles.0.mass": {"choice": [100, 110, 120]},            # or a bare list
-     "contacts.0.unloading.restitution": {"function": e_of_speed}}
-
-A ``function`` is called with the dict of the arrays already sampled (and, if it takes a second
-argument, the random generator) and returns the values (n,). Values may carry units where the
-path's kind is known (speeds, masses, weights, gaps, stiffnesses, forces). Nested tables (TOML
-dotted keys written without quotes) are flattened to dotted paths.
-
-An optional ``correlation`` entry sets the Spearman rank correlation between sampled inputs:
-a matrix in the table's order of the sampled (non-``function``) paths, e.g.
-``correlation = [[1, 0.5], [0.5, 1]]``, or named pairs
-``correlation = [["vehicles.0.speed", "vehicles.1.weight", 0.5]]``. It is applied with a
-Gaussian copula (the Cholesky factor of the normal scores' correlation ``2 sin(π ρ_S / 6)``,
-then each distribution's inverse CDF), so every marginal distribution is kept.
-"""
+"""Monte Carlo uncertainty: scene parameters as distributions (:mod:`lsc.analysis.sampling`),
+solved with :func:`lsc.sweep`, summarised by percentiles."""
 
 from __future__ import annotations
 
-import inspect
-import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,14 +10,17 @@ import numpy as np
 from ..errors import SceneError
 from ..result import METRICS as RESULT_METRICS
 from ..scene import Scene
-from ._common import SummaryHTML, check_keywords, path_quantity
+from ._common import SummaryHTML, check_keywords
+from .sampling import (SAMPLINGS, Inputs, apply_functions, correlated_pairs,
+                       flatten_distributions, inputs, map_points, rank_correlation, sample,
+                       unit_points, warn_sobol_count, check_sampling)
+from .sampling import _check_count  # (also re-exported for global_sensitivity)
+from .blocks import BlockSampler
 
 __all__ = ["monte_carlo", "sample", "MonteCarlo", "flatten_distributions", "METRICS",
            "SAMPLINGS", "inputs", "Inputs", "rank_correlation", "unit_points", "map_points",
-           "apply_functions"]
+           "apply_functions", "warn_sobol_count"]
 
-_KINDS = ("normal", "uniform", "triangular", "choice", "function")
-_EXTRA = {"normal": ("min", "max")}
 
 #: Metrics summarised by default: name → (label, per "vehicle" | "contact" | "scene").
 METRICS = {
@@ -58,7 +37,8 @@ class MonteCarlo(SummaryHTML):
 
     ``samples``: path → sampled values (n,) [scene units]; ``sweep``: the
     :class:`~lsc.SweepResult` (every metric per member; failed members are NaN with their reason
-    in ``sweep.status``); ``q``: the percentiles [%]; ``percentiles``: metric → array
+    in ``sweep.status``), or for a study written to Parquet the
+    :class:`~lsc.parquet.SweepFile` (``samples`` and metrics then read from it on access); ``q``: the percentiles [%]; ``percentiles``: metric → array
     ``(len(q),)``, ``(len(q), N)`` or ``(len(q), K)`` over the solved members, in scene units
     (peak acceleration in g); ``seed``, ``n``, ``sampling`` (the design: :data:`SAMPLINGS`);
     ``rank_correlation``: ``(path_a, path_b)`` → the requested Spearman rank correlation of each
@@ -94,7 +74,7 @@ class MonteCarlo(SummaryHTML):
         names = [v.name for v in s.vehicles]
         units = self.sweep.units
         head = " ".join(f"{f'p{q:g}':>12}" for q in self.q)
-        n_ok = int(np.sum(self.ok))
+        n_ok = self.n - int(self.sweep.stats["failed"])
         design = {"random": "", "sobol": ", scrambled Sobol' points",
                   "lhs": ", Latin hypercube"}[self.sampling]
         lines = [f"{s.name}: Monte Carlo, {self.n} samples (seed {self.seed}{design}), "
@@ -102,6 +82,8 @@ class MonteCarlo(SummaryHTML):
                  "", "sampled: " + ", ".join(self.samples), *self._correlation_lines(), "",
                  f"{'metric':<34} {'unit':>6} {head}"]
         for name, (label, per) in METRICS.items():
+            if name not in self.percentiles:
+                continue
             p = self.percentiles[name]
             unit = "g" if name == "peak_acceleration_g" else units[name]
             if per == "scene":
@@ -113,12 +95,20 @@ class MonteCarlo(SummaryHTML):
             for lab, vals in rows:
                 lines.append(f"{lab:<34} {unit:>6} " + " ".join(f"{v:>12.5g}" for v in vals))
         if n_ok < self.n:
-            reasons, counts = np.unique(self.sweep.status[~self.ok].astype(str), return_counts=True)
             lines.append("")
             lines.append("failed members:")
-            for r, c in sorted(zip(reasons, counts), key=lambda rc: -rc[1])[:5]:
+            for r, c in self._failures()[:5]:
                 lines.append(f"  {c} x {r}")
         return "\n".join(lines)
+
+    def _failures(self) -> list:
+        """``(reason, count)`` of the failed members, most frequent first (a study written to
+        a file counted them as it ran)."""
+        if hasattr(self.sweep, "reasons"):
+            counts = self.sweep.reasons.items()
+        else:
+            counts = zip(*np.unique(self.sweep.status[~self.ok].astype(str), return_counts=True))
+        return sorted(counts, key=lambda rc: -rc[1])
 
     def _correlation_lines(self) -> list[str]:
         """The requested rank correlations, one line (none when independent)."""
@@ -169,460 +159,10 @@ def _default_index(scene: Scene, metric: str) -> int:
     return scene.n_vehicles - 1 if per == "vehicle" else 0
 
 
-def flatten_distributions(dists) -> dict:
-    """Dotted path → spec, from a dict that may nest (``{"vehicles": {"0": {"speed": ...}}}``)."""
-    if not isinstance(dists, dict) or not dists:
-        raise SceneError("uncertainty", "distributions are a non-empty dict of dotted scene paths "
-                                        "to specs such as { uniform = [4, 8] }")
-    out = {}
-
-    def walk(prefix, node):
-        if isinstance(node, dict) and not any(k in node for k in _KINDS):
-            if not node:
-                raise SceneError(prefix or "uncertainty", "an empty table is not a distribution")
-            for key, sub in node.items():
-                walk(f"{prefix}.{key}" if prefix else str(key), sub)
-        else:
-            out[prefix] = node
-
-    walk("", dists)
-    return out
-
-
-def _spec(path: str, spec):
-    """``(kind, args, extra)`` of one spec (a dict with one kind, a bare list = choice)."""
-    if isinstance(spec, (list, tuple)):
-        return "choice", list(spec), {}
-    if callable(spec):
-        return "function", spec, {}
-    if not isinstance(spec, dict):
-        raise SceneError(path, f"a distribution is a table such as {{ normal = [mean, sd] }}, "
-                               f"{{ uniform = [lo, hi] }}, {{ triangular = [lo, mode, hi] }}, "
-                               f"{{ choice = [...] }} or {{ function = f }}; got {spec!r}")
-    kinds = [k for k in _KINDS if k in spec]
-    if len(kinds) != 1:
-        raise SceneError(path, f"a distribution names exactly one of {', '.join(_KINDS)}; got "
-                               f"{', '.join(map(str, spec)) or 'none'}")
-    kind = kinds[0]
-    extra = {k: v for k, v in spec.items() if k != kind}
-    bad = set(extra) - set(_EXTRA.get(kind, ()))
-    if bad:
-        raise SceneError(f"{path}.{sorted(bad)[0]}", f"unknown key for a {kind} distribution"
-                         + (f"; accepted: {', '.join(_EXTRA[kind])}" if kind in _EXTRA else ""))
-    return kind, spec[kind], extra
-
-
-def _numbers(vals, n_args, scene, path, kind):
-    if not isinstance(vals, (list, tuple)) or len(vals) != n_args:
-        raise SceneError(f"{path}.{kind}", f"a {kind} distribution takes {n_args} values, got {vals!r}")
-    return [path_quantity(v, scene, path) for v in vals]
-
-
-def _function(path: str, f):
-    if isinstance(f, str) and ":" in f:  # "package.module:name" (from a TOML file)
-        import importlib
-        mod, _, name = f.partition(":")
-        try:
-            f = getattr(importlib.import_module(mod), name)
-        except (ImportError, AttributeError) as e:
-            raise SceneError(f"{path}.function", f"cannot import {f!r}: {e}") from None
-    if not callable(f):
-        raise SceneError(f"{path}.function", f"expected a callable (or \"module:name\"), got {f!r}")
-    try:
-        params = [p for p in inspect.signature(f).parameters.values()
-                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-        takes_rng = len(params) >= 2
-    except (TypeError, ValueError):
-        takes_rng = False
-    return f, takes_rng
-
-
-#: Accepted ``sampling`` designs: plain pseudo-random draws, scrambled Sobol' points
-#: (quasi-Monte Carlo) and a Latin hypercube (both from :mod:`scipy.stats.qmc`).
-SAMPLINGS = ("random", "sobol", "lhs")
-
-# The open interval (0, 1) that the inverse CDFs are evaluated on (a design point or a copula
-# value of exactly 0 or 1 would map an unbounded distribution to an infinite value).
-_U_MIN, _U_MAX = np.finfo(float).tiny, np.nextafter(1.0, 0.0)
-
-
-@dataclass(frozen=True)
-class _Normal:
-    """A normal distribution [scene units], truncated to ``[lo, hi]`` where those are finite."""
-
-    mean: float
-    sd: float
-    lo: float = -np.inf
-    hi: float = np.inf
-
-    @property
-    def truncated(self) -> bool:
-        return bool(np.isfinite(self.lo) or np.isfinite(self.hi))
-
-    def draw(self, rng, n: int) -> np.ndarray:
-        if not self.truncated:
-            return rng.normal(self.mean, self.sd, n)
-        if self.sd == 0:
-            return np.full(n, np.clip(self.mean, self.lo, self.hi))
-        return _truncated_normal(rng, self.mean, self.sd, self.lo, self.hi, n)
-
-    def ppf(self, u: np.ndarray) -> np.ndarray:
-        from scipy import stats
-        if self.sd == 0:
-            return np.full(u.shape, np.clip(self.mean, self.lo, self.hi))
-        if not self.truncated:
-            return stats.norm.ppf(u, loc=self.mean, scale=self.sd)
-        a, b = (self.lo - self.mean) / self.sd, (self.hi - self.mean) / self.sd
-        return stats.truncnorm.ppf(u, a, b, loc=self.mean, scale=self.sd)
-
-
-@dataclass(frozen=True)
-class _Uniform:
-    lo: float
-    hi: float
-
-    def draw(self, rng, n: int) -> np.ndarray:
-        return rng.uniform(self.lo, self.hi, n)
-
-    def ppf(self, u: np.ndarray) -> np.ndarray:
-        return self.lo + (self.hi - self.lo) * u  # (lo == hi allowed: a constant)
-
-
-@dataclass(frozen=True)
-class _Triangular:
-    lo: float
-    mode: float
-    hi: float
-
-    def draw(self, rng, n: int) -> np.ndarray:
-        return rng.triangular(self.lo, self.mode, self.hi, n)
-
-    def ppf(self, u: np.ndarray) -> np.ndarray:
-        from scipy import stats
-        width = self.hi - self.lo
-        return stats.triang.ppf(u, (self.mode - self.lo) / width, loc=self.lo, scale=width)
-
-
-@dataclass(frozen=True)
-class _Choice:
-    """Equally likely values [scene units]."""
-
-    values: np.ndarray
-
-    def draw(self, rng, n: int) -> np.ndarray:
-        return self.values[rng.integers(0, self.values.size, n)]
-
-    def ppf(self, u: np.ndarray) -> np.ndarray:
-        k = self.values.size
-        return self.values[np.minimum((u * k).astype(np.int64), k - 1)]
-
-
-def _marginal(base: Scene, path: str, kind: str, args, extra: dict):
-    """The distribution of one ``(kind, args, extra)`` spec, checked (``SceneError`` naming the
-    path's field otherwise)."""
-    if kind == "normal":
-        mean, sd = _numbers(args, 2, base, path, kind)
-        if not sd >= 0:
-            raise SceneError(f"{path}.normal", f"the standard deviation must be >= 0, got {sd:g}")
-        lo = path_quantity(extra["min"], base, path) if "min" in extra else -np.inf
-        hi = path_quantity(extra["max"], base, path) if "max" in extra else np.inf
-        if not lo < hi:
-            raise SceneError(f"{path}.min", f"min must be below max, got {lo:g} and {hi:g}")
-        return _Normal(mean, sd, lo, hi)
-    if kind == "uniform":
-        lo, hi = _numbers(args, 2, base, path, kind)
-        if not lo <= hi:
-            raise SceneError(f"{path}.uniform", f"needs lo <= hi, got {lo:g} and {hi:g}")
-        return _Uniform(lo, hi)
-    if kind == "triangular":
-        lo, mode, hi = _numbers(args, 3, base, path, kind)
-        if not (lo <= mode <= hi and lo < hi):
-            raise SceneError(f"{path}.triangular", f"needs lo <= mode <= hi and lo < hi, got "
-                                                   f"{lo:g}, {mode:g}, {hi:g}")
-        return _Triangular(lo, mode, hi)
-    if not isinstance(args, (list, tuple)) or not args:
-        raise SceneError(f"{path}.choice", "a choice is a non-empty list of values")
-    return _Choice(np.array([path_quantity(v, base, path) for v in args]))
-
-
-def _check_count(n, seed) -> None:
-    """``n`` a positive whole number within :data:`lsc.sweep.MAX_MEMBERS`, ``seed`` ``None`` or
-    a whole number >= 0 (``SceneError`` naming them otherwise)."""
-    from ..sweep import check_members
-
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise SceneError("n", f"the number of samples must be a positive integer, got {n!r}")
-    check_members(int(n), "n")
-    if seed is not None and (isinstance(seed, (bool, np.bool_))
-                             or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise SceneError("seed", "the seed must be a whole number >= 0 (or None: a fresh one "
-                                 f"each run), got {seed!r}")
-
-
-@dataclass(frozen=True)
-class Inputs:
-    """The uncertain inputs of a study: ``marginals`` (sampled path → distribution, in the
-    table's order), ``functions`` (path → ``(callable, takes_rng)``, evaluated from the sampled
-    ones) and ``rank_correlation`` (the requested Spearman matrix over the sampled paths, or
-    ``None``: independent)."""
-
-    scene: Scene
-    marginals: dict
-    functions: dict
-    rank_correlation: np.ndarray | None = None
-    order: tuple = ()
-
-
-def inputs(scene, distributions: dict) -> Inputs:
-    """The checked :class:`Inputs` of a distributions table (see the module docstring; an
-    optional ``correlation`` entry: see :func:`rank_correlation`)."""
-    base = Scene.load(scene)
-    dists = dict(distributions) if isinstance(distributions, dict) else distributions
-    corr = dists.pop("correlation", None) if isinstance(dists, dict) else None
-    specs = {p: _spec(p, s) for p, s in flatten_distributions(dists).items()}
-    marginals = {p: _marginal(base, p, *s) for p, s in specs.items() if s[0] != "function"}
-    functions = {p: _function(p, s[1]) for p, s in specs.items() if s[0] == "function"}
-    matrix = None if corr is None else rank_correlation(corr, marginals)
-    return Inputs(base, marginals, functions, matrix, tuple(specs))
-
-
-def sample(scene, distributions: dict, n: int, *, seed=None, sampling: str = "random") -> dict:
-    """Draw ``n`` values per path [scene units], reproducibly for a ``seed``.
-
-    ``sampling="random"`` (independent inputs): paths are drawn in the dict's order from one
-    ``numpy.random.Generator(PCG64(seed))``. ``"sobol"`` (scrambled Sobol' points) or ``"lhs"``
-    (a Latin hypercube), or correlated inputs: one point of the unit hypercube per member, one
-    coordinate per sampled path (a Gaussian copula for the correlation), mapped through each
-    distribution's inverse CDF. The ``function`` specs are evaluated after every other one, in
-    their order. A Sobol' ``n`` that is not a power of two is kept, with a warning.
-    """
-    _check_count(n, seed)
-    if sampling not in SAMPLINGS:
-        raise SceneError("sampling", f"the sampling design is one of {', '.join(SAMPLINGS)}; "
-                                     f"got {sampling!r}")
-    spec = inputs(scene, distributions)
-    rng = np.random.default_rng(seed)
-    if sampling == "random" and spec.rank_correlation is None:
-        out = {p: m.draw(rng, n) for p, m in spec.marginals.items()}
-    else:
-        u = unit_points(sampling, int(n), len(spec.marginals), rng, spec.rank_correlation)
-        out = map_points(spec, u)
-    return apply_functions(spec, out, rng, int(n))
-
-
-def map_points(spec: Inputs, u: np.ndarray) -> dict:
-    """Points ``u`` (n, d) of the open unit hypercube → sampled path → values (n,) [scene
-    units], each column through its distribution's inverse CDF."""
-    u = np.clip(u, _U_MIN, _U_MAX)
-    return {p: m.ppf(u[:, j]) for j, (p, m) in enumerate(spec.marginals.items())}
-
-
-def apply_functions(spec: Inputs, out: dict, rng, n: int) -> dict:
-    """``out`` with the ``function`` specs evaluated (each on a copy of the values so far, and
-    ``rng`` if it takes one), every path checked against the scene; in the table's order."""
-    for path, (f, takes_rng) in spec.functions.items():
-        view = {p: v.copy() for p, v in out.items()}
-        vals = f(view, rng) if takes_rng else f(view)
-        try:
-            arr = np.broadcast_to(np.asarray(vals, float), (n,)).copy()
-        except (TypeError, ValueError):
-            raise SceneError(f"{path}.function", f"the function must return {n} numbers (or one), "
-                                                 f"got {np.shape(vals)}") from None
-        out[path] = arr
-    for path in out:
-        _check_path(spec.scene, path, out[path][0])
-    return {p: out[p] for p in spec.order}
-
-
-def unit_points(sampling: str, n: int, d: int, rng, rank_correlation=None) -> np.ndarray:
-    """``n`` points (n, d) of the unit hypercube for a design of :data:`SAMPLINGS`, with the
-    requested Spearman rank correlation between columns (a Gaussian copula) if one is given."""
-    from scipy.special import ndtr, ndtri
-    from scipy.stats import qmc
-
-    if d == 0:
-        return np.empty((n, 0))
-    if sampling == "random":
-        z = rng.standard_normal((n, d))
-    else:
-        if sampling == "sobol":
-            warn_sobol_count(n, "n")
-            engine = _qmc_engine(qmc.Sobol, d, rng, scramble=True)
-        else:
-            engine = _qmc_engine(qmc.LatinHypercube, d, rng)
-        with warnings.catch_warnings():  # (the count was dealt with above)
-            warnings.filterwarnings("ignore", message=".*balance properties of Sobol")
-            u = engine.random(n)
-        if rank_correlation is None:
-            return u
-        z = ndtri(np.clip(u, _U_MIN, _U_MAX))
-    if rank_correlation is not None:
-        z = z @ np.linalg.cholesky(_normal_scores(rank_correlation)).T
-    return ndtr(z)
-
-
-def _qmc_engine(cls, d: int, rng, **kw):
-    """A :mod:`scipy.stats.qmc` engine seeded from ``rng`` (keyword ``rng`` since SciPy 1.15,
-    ``seed`` before)."""
-    try:
-        return cls(d, rng=rng, **kw)
-    except TypeError:
-        return cls(d, seed=rng, **kw)
-
-
-def warn_sobol_count(n: int, what: str) -> None:
-    """Warn that a Sobol' sample of ``n`` points (the argument ``what``) is not a power of two:
-    the first ``n`` points of the sequence are used, as asked, without its balance."""
-    if n & (n - 1):
-        up = 1 << (n - 1).bit_length()
-        warnings.warn(f"{what} = {n} is not a power of two: the first {n} points of a scrambled "
-                      f"Sobol' sequence are used as asked, but only a power of two keeps its "
-                      f"balance (and its faster convergence); use {what} = {up // 2} or {up}",
-                      UserWarning, stacklevel=3)
-
-
-def _normal_scores(rank: np.ndarray) -> np.ndarray:
-    """The Pearson correlation of the copula's normal scores that gives the Spearman rank
-    correlation ``rank``: ``2 sin(π ρ_S / 6)`` (Pearson's relation for a bivariate normal)."""
-    return 2.0 * np.sin(np.pi * rank / 6.0)
-
-
-def rank_correlation(spec, marginals: dict) -> np.ndarray:
-    """The ``correlation`` entry of an ``[uncertainty]`` table as a checked Spearman rank
-    correlation matrix over the sampled paths (``marginals``, in the table's order).
-
-    Accepted: a matrix (a list of rows, one row and column per sampled path in the table's
-    order; ``function`` paths are not sampled) or named pairs ``[[path_a, path_b, rho], ...]``
-    (pairs left out are uncorrelated). The matrix must be symmetric with a unit diagonal and
-    positive definite (also once turned into the copula's normal-score correlation), and a
-    ``choice`` input (ties: no rank correlation can be set) is uncorrelated; ``SceneError`` on
-    ``uncertainty.correlation`` otherwise."""
-    paths = list(marginals)
-    if isinstance(spec, (list, tuple)) and spec and all(
-            isinstance(row, (list, tuple)) and row and isinstance(row[0], str) for row in spec):
-        matrix = _pairs_matrix(spec, paths)
-    else:
-        matrix = _numeric_matrix(spec, paths)
-    _check_correlation(matrix, paths, marginals)
-    return matrix
-
-
-_FIELD = "uncertainty.correlation"
-
-
-def _numeric_matrix(spec, paths: list) -> np.ndarray:
-    d = len(paths)
-    shape = f"{d} rows of {d} numbers, one per sampled input in the table's order " \
-            f"({', '.join(paths)}), or pairs [[path_a, path_b, rho], ...]"
-    try:
-        matrix = np.array(spec, dtype=float)
-    except (TypeError, ValueError):
-        raise SceneError(_FIELD, f"a correlation matrix is {shape}; got {spec!r}") from None
-    if matrix.shape != (d, d):
-        raise SceneError(_FIELD, f"a correlation matrix is {shape}; got shape "
-                                 f"{'x'.join(map(str, matrix.shape)) or 'scalar'}")
-    return matrix
-
-
-def _pairs_matrix(spec, paths: list) -> np.ndarray:
-    from ._common import split_path
-
-    index = {".".join(split_path(p)): j for j, p in enumerate(paths)}
-    matrix = np.eye(len(paths))
-    seen = set()
-    for row in spec:
-        where = f"{_FIELD}[{len(seen)}]"
-        if len(row) != 3 or not isinstance(row[1], str) or isinstance(row[2], (bool, str)):
-            raise SceneError(where, f"a pair is [path_a, path_b, rho], got {list(row)!r}")
-        ij = []
-        for p in row[:2]:
-            key = ".".join(split_path(p))
-            if key not in index:
-                raise SceneError(where, f"{p!r} is not a sampled input; the sampled inputs are "
-                                        f"{', '.join(paths)}")
-            ij.append(index[key])
-        pair = tuple(sorted(ij))
-        if pair[0] == pair[1] or pair in seen:
-            raise SceneError(where, f"each pair names two different inputs once; got {list(row)!r}")
-        seen.add(pair)
-        try:
-            rho = float(row[2])
-        except (TypeError, ValueError):
-            raise SceneError(where, f"rho must be a number, got {row[2]!r}") from None
-        matrix[ij[0], ij[1]] = matrix[ij[1], ij[0]] = rho
-    return matrix
-
-
-def _check_correlation(matrix: np.ndarray, paths: list, marginals: dict) -> None:
-    if not np.all(np.isfinite(matrix)):
-        raise SceneError(_FIELD, "every correlation must be a finite number")
-    d = len(paths)
-    for i in range(d):
-        if matrix[i, i] != 1:
-            raise SceneError(_FIELD, f"the diagonal must be 1 (an input's correlation with "
-                                     f"itself); entry [{i}][{i}] ({paths[i]}) is {matrix[i, i]:g}")
-        for j in range(i + 1, d):
-            if matrix[i, j] != matrix[j, i]:
-                raise SceneError(_FIELD, f"the matrix must be symmetric; [{i}][{j}] = "
-                                         f"{matrix[i, j]:g} but [{j}][{i}] = {matrix[j, i]:g}")
-            if matrix[i, j] != 0 and any(isinstance(marginals[paths[k]], _Choice) for k in (i, j)):
-                k = i if isinstance(marginals[paths[i]], _Choice) else j
-                raise SceneError(_FIELD, f"{paths[k]} is a choice (equally likely values, with "
-                                         "ties): it cannot be rank-correlated; give it a "
-                                         "continuous distribution or correlation 0")
-    for what, m in (("", matrix), (" once turned into the normal scores' correlation "
-                                   "2 sin(pi rho/6) of the Gaussian copula", _normal_scores(matrix))):
-        try:
-            np.linalg.cholesky(m)
-        except np.linalg.LinAlgError:
-            low = np.linalg.eigvalsh(m)[0]
-            raise SceneError(_FIELD, f"the rank correlation matrix must be positive definite"
-                                     f"{what} (its smallest eigenvalue is {low:.3g}): no inputs "
-                                     "can have these correlations together") from None
-
-
-def _correlated_pairs(spec: Inputs) -> dict:
-    """``(path_a, path_b)`` → requested rank correlation, for every correlated pair."""
-    if spec.rank_correlation is None:
-        return {}
-    paths, r = list(spec.marginals), spec.rank_correlation
-    return {(paths[i], paths[j]): float(r[i, j]) for i in range(len(paths))
-            for j in range(i + 1, len(paths)) if r[i, j] != 0}
-
-
-def _truncated_normal(rng, mean: float, sd: float, lo: float, hi: float, n: int) -> np.ndarray:
-    """``n`` draws of a normal truncated to ``[lo, hi]``: by rejection while at least 5 % of the
-    normal lies inside (deterministic for the generator's state), else by the inverse CDF."""
-    a, b = (lo - mean) / sd, (hi - mean) / sd
-    inside = 0.5 * (math.erf(b / math.sqrt(2)) - math.erf(a / math.sqrt(2)))
-    if inside >= 0.05:
-        out = np.empty(0)
-        while out.size < n:
-            z = rng.normal(0.0, 1.0, int((n - out.size) / inside * 1.1) + 16)
-            out = np.concatenate([out, z[(z >= a) & (z <= b)]])
-        return mean + sd * out[:n]
-    from scipy.special import ndtr, ndtri
-    flip = a > 0  # work in the lower tail, where ndtr keeps its precision
-    if flip:
-        a, b = -b, -a
-    z = np.clip(ndtri(rng.uniform(ndtr(a), ndtr(b), n)), a, b)
-    return mean + sd * (-z if flip else z)
-
-
-def _check_path(scene: Scene, path: str, value: float) -> None:
-    """SceneError if ``path`` names no field of the scene (a misspelled distribution kind nested
-    as a table ends up here too)."""
-    try:
-        scene.with_values({path: float(value)})
-    except SceneError as e:
-        msg = str(e)
-        if "unknown key" in msg or "no such field" in msg:
-            raise SceneError(path, f"{e.message if hasattr(e, 'message') else msg} (a distribution "
-                                   f"names exactly one of {', '.join(_KINDS)})") from None
-
 
 def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str = "random",
-                method: str = "auto", progress=None, percentiles=(5, 50, 95),
+                method: str = "auto", progress=None, percentiles=(5, 50, 95), metrics=None,
+                out=None, overwrite: bool = False, executor=None, task_size: int | None = None,
                 **options) -> MonteCarlo:
     """Sample the distributions, solve every member with :func:`lsc.sweep`, and summarise.
 
@@ -631,7 +171,7 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
     scene : dict, path or Scene
         The base scene.
     distributions : dict
-        Dotted path → spec (see the module docstring).
+        Dotted path → spec (see :mod:`lsc.analysis.sampling`).
     n : int
         Number of samples.
     seed : int or None
@@ -646,29 +186,59 @@ def monte_carlo(scene, distributions: dict, n: int, *, seed=None, sampling: str 
         Progress bar (``None``: when stderr is a terminal).
     percentiles : sequence of float
         Percentiles reported [%] (default 5, 50, 95).
+    metrics : sequence of str, optional
+        The metrics kept per member (default: all in memory; with ``out``, those of
+        :data:`METRICS`). The percentiles are those of :data:`METRICS` kept.
+    out : path, optional
+        Stream the study to this Parquet file (:func:`lsc.sweep`'s ``out``): the samples are
+        drawn a block at a time (:mod:`lsc.analysis.blocks`; with ``sampling="random"`` not the
+        values of an in-memory run of the same seed), nothing is held per member, and the
+        percentiles are exact, read back from the file a column at a time. ``overwrite``: replace
+        an existing file.
+    executor, task_size
+        As for :func:`lsc.sweep`: where the tasks run, and their size.
     **options
         Solver options, as for :func:`lsc.solve`.
 
     Returns
     -------
     MonteCarlo
-        Samples, the sweep, and the percentiles of ΔV, peak acceleration [g], pulse duration and
-        peak force over the members that were solved.
+        Samples, the sweep (a :class:`lsc.parquet.SweepFile` with ``out``), and the percentiles
+        of ΔV, peak acceleration [g], pulse duration and peak force over the members solved.
     """
-    from ..sweep import sweep
+    from ..sweep import Arrays, study
 
-    check_keywords("monte_carlo", options, ("seed", "method", "progress", "percentiles"))
+    check_keywords("monte_carlo", options, ("seed", "method", "progress", "percentiles",
+                                            "metrics", "out", "overwrite", "executor",
+                                            "task_size"))
     base = Scene.load(scene)
     q = tuple(float(x) for x in np.atleast_1d(percentiles))
     if not q or any(not 0 <= x <= 100 for x in q):
         raise SceneError("percentiles", f"percentiles lie in [0, 100], got {percentiles!r}")
-    samples = sample(base, distributions, n, seed=seed, sampling=sampling)
-    correlation = _correlated_pairs(inputs(base, distributions))
-    sw = sweep(base, samples, method=method, progress=progress, **options)
-    pct = {}
-    ok = sw.ok
-    for name in METRICS:
-        arr = np.asarray(sw.metrics[name])[ok]
-        pct[name] = (np.percentile(arr, q, axis=0) if arr.shape[0]
-                     else np.full((len(q),) + arr.shape[1:], np.nan))
+    if out is None:
+        samples = sample(base, distributions, n, seed=seed, sampling=sampling)
+        members = Arrays(samples)
+    else:
+        _check_count(n, seed, in_memory=False)
+        check_sampling(sampling)
+        members = BlockSampler(inputs(base, distributions), sampling, n, seed)
+        seed = members.seed
+        metrics = tuple(METRICS) if metrics is None else metrics
+    correlation = correlated_pairs(inputs(base, distributions))
+    sw = study(base, members, (int(n),), method=method, options=options, controls={},
+               metrics=metrics, out=out, overwrite=overwrite, executor=executor,
+               task_size=task_size, progress=progress)
+    if out is not None:
+        samples = sw.params
+    pct = {name: _percentiles(sw, name, q) for name in METRICS if name in sw.metrics}
     return MonteCarlo(base, samples, sw, q, pct, seed, int(n), sampling, correlation)
+
+
+def _percentiles(sw, name: str, q: tuple) -> np.ndarray:
+    """Percentiles ``q`` of metric ``name`` over the solved members of a sweep (in memory, or
+    read back from its file a column at a time)."""
+    if hasattr(sw, "percentiles"):
+        return sw.percentiles(name, q)
+    arr = np.asarray(sw.metrics[name])[sw.ok]
+    return (np.percentile(arr, q, axis=0) if arr.shape[0]
+            else np.full((len(q),) + arr.shape[1:], np.nan))

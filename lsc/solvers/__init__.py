@@ -24,6 +24,7 @@ __all__ = ["METHODS", "ALL_OPTIONS", "MAX_SAMPLES", "OPTIONS", "Backend", "Optio
 _DECLARED: dict[str, object] = {
     "closed-form": "lsc.solvers.closed_form",
     "exact": "lsc.solvers.exact",
+    "exact-chain": "lsc.solvers.exact_chain",
     "scipy": "lsc.solvers.scipy_ode",
     "diffrax": "lsc.solvers.diffrax_ode",
     "reference": "lsc.solvers.reference",
@@ -111,7 +112,8 @@ def pick(scene_or_model, method: str, members: int | None = None) -> str:
     if method != "auto":
         return method
     model = _model(scene_or_model)
-    exact = sorted((b for b in backends() if b.exact and b.available() and not b.missing(model)),
+    exact = sorted((b for b in backends()
+                    if b.exact and b.auto and b.available() and not b.missing(model)),
                    key=lambda b: b.cost)
     if members is not None:
         batched = [b for b in exact if not b.missing(model, batch=True)]

@@ -153,6 +153,9 @@ class Backend:
         The options ``solve_batch`` takes.
     requires : tuple of str
         Modules it needs (an optional extra), and how to install them (``install``).
+    auto : bool
+        Whether ``auto`` may pick it (``False``: only by its name, e.g. while it is still slower
+        than the integrator ``auto`` would use instead).
     """
 
     name: str
@@ -167,6 +170,7 @@ class Backend:
     requires: tuple[str, ...] = ()
     install: str = ""
     summary: str = ""
+    auto: bool = True
 
     def __post_init__(self):
         unknown = (set(self.options) - set(OPTIONS)) | (set(self.batch_options) - set(OPTIONS)

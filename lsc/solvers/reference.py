@@ -173,15 +173,13 @@ def solve(model, *, dt: float = 1e-5, t_end=None, max_steps: int = MAX_STEPS,
     warning = _coarse_step_warning(law, p, M1, M2, st, events, dt)
     if warning:
         stats["warnings"] = [warning]
-    r = Result.build(scene, t=t_arr[keep], x=x[keep], v=v[keep], a=a[keep],
-                     deformation=Darr[keep, None], force=Farr[keep, None], events=events,
-                     contacts=rec, v_final=np.array([V1_last, V2_last]), method="reference",
-                     tolerances={"dt": dt}, stats=stats)
-    # Peaks over every step, not only the kept samples.
+    # the peaks over every step up to the separation, not only over the kept samples
     ia = np.argmax(np.abs(a), axis=0)
-    imp = r.impacts[0]
-    r._raise_peaks([(imp.t_start, imp.t_end, [Farr.max()], a[ia, [0, 1]])])
-    return r
+    peaks = [(0.0, t, [Farr.max()], a[ia, [0, 1]])]
+    return Result.build(scene, t=t_arr[keep], x=x[keep], v=v[keep], a=a[keep],
+                        deformation=Darr[keep, None], force=Farr[keep, None], events=events,
+                        contacts=rec, v_final=np.array([V1_last, V2_last]), peaks=peaks,
+                        method="reference", tolerances={"dt": dt}, stats=stats)
 
 
 def _check_steps(model, dt: float) -> None:

@@ -35,7 +35,7 @@ from scipy.integrate import OdeSolution
 from scipy.optimize import brentq
 
 from ..contact import HysteresisLaw
-from ..effects import BrakeEffect
+from ..effects import BrakeEffect, integrable_features
 from ..errors import SimulationError
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
@@ -319,8 +319,9 @@ def _polish(restep, g, slope, t_old, t_new, tr, yr, iters: int = 3):
     return best[1], best[2]
 
 
-#: Every built-in feature of the model: SciPy integrates any scene of the hybrid ODE.
-FEATURES = frozenset({
+#: Every built-in feature of the model, and those of registered laws and effects that declare
+#: ``integrable``: SciPy integrates any scene of the hybrid ODE.
+FEATURES = integrable_features({
     "law:ifd", "loading:linear", "loading:table", "unloading:restitution",
     "unloading:stiffness", "unloading:table", "law:kelvin", "law:hunt-crossley", "law:brach",
     "effect:brake", "effect:failure", "effect:post-failure", "gap:open"})
@@ -349,7 +350,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                          f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
                          "'closed-form' where they apply")
     # a chain's contacts pushed shut lock instead of chattering (lsc.locking)
-    model = model.locking_model()
+    model = locking_model(model)
     p = model.params
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)

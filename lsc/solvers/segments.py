@@ -3,7 +3,9 @@
 A backend supplies ``advance(t0, y0, disc, horizon)``: integrate the frozen-mode system from
 ``(t0, y0)`` until the earliest armed event or ``horizon``, returning a :class:`Step`. This module
 applies the event's transition (the model's, never the backend's), checks the physics status,
-stops when no contact can close any more, and samples the piecewise solution for the result.
+stops when no contact can close any more, and builds the Result from the event points (each
+segment's ends) and the peaks located inside segments; the piecewise solution is sampled into
+the series only when the Result's series are first read.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..result import Event, Result
 
-__all__ = ["Step", "Segment", "run_segments", "build_result"]
+__all__ = ["Step", "Segment", "run_segments", "build_result", "event_rows", "interior_peaks"]
 
 
 @dataclass
@@ -112,74 +114,151 @@ def contact_records(model, disc) -> list[dict]:
 
 
 def build_result(model, segments, events, y_final, disc_final, *, method, tolerances, stats,
-                 n_samples=1000, y_post=None) -> Result:
-    """Sample every segment (both ends included) and assemble the :class:`Result`."""
-    p = model.params
-    total = max(sum(s.t1 - s.t0 for s in segments), 1e-300)
-    ts, ys, As, Ds, Fs = [], [], [], [], []
-    for s in segments:
-        n = max(2, int(round(n_samples * (s.t1 - s.t0) / total)) + 1)
-        tt = np.linspace(s.t0, s.t1, n)
-        yy = np.asarray(s.dense(tt), float).reshape(model.n_state, n)
-        pp = dict(p, gap=p["gap"][:, None])
-        Fk, _, acc = model.accelerations(yy, s.disc, pp)
-        Fk = np.broadcast_to(np.asarray(Fk, float), (model.K, n))
-        acc = np.broadcast_to(np.asarray(acc, float), (model.N, n)).T
-        F = Fk.T
-        D, _ = model.deformation(yy, pp)
-        ts.append(tt)
-        ys.append(yy.T)
-        As.append(acc)
-        Ds.append(np.asarray(D).T)
-        Fs.append(F)
-    if not segments:  # nothing happened (cannot occur for a validated scene, kept for safety)
-        ts, ys = [np.zeros(1)], [np.asarray(y_final)[None, :]]
-        As, Ds, Fs = [np.zeros((1, model.N))], [np.zeros((1, model.K))], [np.zeros((1, model.K))]
-    Y = np.concatenate(ys)
+                 n_samples=1000, y_post=None, peaks=(), rows=None,
+                 interior=True) -> Result:
+    """The :class:`Result` of a segment run: impacts and metrics from every segment's ends
+    (:func:`event_rows`) and the peaks inside segments (a damping law's force, a chain's middle
+    vehicle: :func:`interior_peaks`; plus ``peaks``, spans ``(t0, t1, force (K,), acceleration
+    (N,))`` a backend located itself); the series (``n_samples`` points over the run, both ends
+    of every segment included) sampled from the dense outputs when first read. ``rows``: the
+    rows at the event points, if the backend has them (else :func:`event_rows`); ``interior``:
+    search the peaks inside segments (``False`` where ``peaks`` holds them all, exactly)."""
     N = model.N
     post = np.asarray(y_final if y_post is None else y_post)
-    r = Result.build(model.scene, t=np.concatenate(ts), x=Y[:, :N], v=Y[:, N:2 * N],
-                     a=np.concatenate(As), deformation=np.concatenate(Ds),
-                     force=np.concatenate(Fs), events=events,
-                     contacts=contact_records(model, disc_final), v_final=post[N:2 * N],
-                     method=method, tolerances=tolerances, stats=stats)
-    if segments and (model.work or model.N > 2):
-        _refine_peaks(model, segments, r)
-    return r
+    rows = event_rows(model, segments, y_final) if rows is None else rows
+    turns = _turning(rows) if segments else np.zeros((0, model.K), bool)
+    inside = [j for j, turn in enumerate(turns)
+              if interior and (turn.any() or model.work or N > 2)]
+    spans = list(peaks) + interior_peaks(model, [segments[j] for j in inside], turns[inside])
+    return Result.build(model.scene, rows=rows,
+                        sampler=_Sampler(model, segments, y_final, n_samples), peaks=spans,
+                        events=events, contacts=contact_records(model, disc_final),
+                        v_final=post[N:2 * N], method=method, tolerances=tolerances, stats=stats)
 
 
-def _refine_peaks(model, segments, r, probes: int = 33, iterations: int = 40) -> None:
-    """Peaks that can lie inside a segment (a damping law's force, a chain's middle vehicle),
-    located on the dense output to the solver's accuracy rather than read off the samples:
-    in each segment, each force and acceleration is sampled at ``probes`` points and its largest
-    sample's neighbourhood searched by golden sections, all of them at once (one dense-output
-    call per iteration for every quantity), to 1e-8 of the bracket in time: the value, at a
-    smooth maximum, to rounding.
+def _turning(rows) -> np.ndarray:
+    """Per segment and contact (S, K), from :func:`event_rows`: whether the deformation turns
+    inside the segment (closing at its start, opening at its end, each by more than
+    :data:`TURNING` of the largest speed: a contact reloaded along its unloading line, whose
+    largest deformation is no event)."""
+    v = rows["v"]
+    closing = v[:, :-1] - v[:, 1:]
+    tol = TURNING * float(np.max(np.abs(v), initial=0.0))
+    return (closing[0::2] > tol) & (closing[1::2] < -tol)
+
+
+#: A deformation turns inside a segment when its closing rate changes sign by more than this
+#: fraction of the run's largest speed (less: an event located to rounding, or a turn whose
+#: crush above the segment's ends is below rounding).
+TURNING = 1e-6
+
+
+def _columns(p) -> dict:
+    """The model parameters ``p`` for states given as columns (the gaps as a column)."""
+    return dict(p, gap=p["gap"][:, None])
+
+
+def _full(x, shape) -> np.ndarray:
+    """``x`` as a float array of ``shape`` (broadcast where a law gave a constant)."""
+    x = np.asarray(x, float)
+    return x if x.shape == shape else np.broadcast_to(x, shape)
+
+
+def _values(model, s, tt, pp) -> dict:
+    """Segment ``s``'s state ``y`` (n, len(tt)), contact forces (K, ·), accelerations (N, ·) and
+    deformations (K, ·) at times ``tt``, in its frozen discrete state (``pp``: the parameters,
+    :func:`_columns`)."""
+    n = len(tt)
+    yy = np.asarray(s.dense(tt), float).reshape(model.n_state, n)
+    F, _, acc = model.accelerations(yy, s.disc, pp)
+    D, _ = model.deformation(yy, pp)
+    return {"y": yy, "force": _full(F, (model.K, n)), "a": _full(acc, (model.N, n)),
+            "deformation": np.asarray(D, float)}
+
+
+def _rows_of(model, parts, times) -> dict:
+    """Rows (``t, x, v, a, deformation, force``) from per-segment :func:`_values`."""
+    N = model.N
+    Y = np.concatenate([q["y"].T for q in parts])
+    return {"t": np.concatenate(times), "x": Y[:, :N], "v": Y[:, N:2 * N],
+            "a": np.concatenate([q["a"].T for q in parts]),
+            "deformation": np.concatenate([q["deformation"].T for q in parts]),
+            "force": np.concatenate([q["force"].T for q in parts])}
+
+
+def _at_rest(model, y_final) -> dict:
+    """The single row of a run with no segment (cannot occur for a validated scene)."""
+    y = np.asarray(y_final, float)
+    return {"t": np.zeros(1), "x": y[None, :model.N], "v": y[None, model.N:2 * model.N],
+            "a": np.zeros((1, model.N)), "deformation": np.zeros((1, model.K)),
+            "force": np.zeros((1, model.K))}
+
+
+def event_rows(model, segments, y_final) -> dict:
+    """The rows at the event points: both ends of every segment, each in the segment's own
+    discrete state (so both sides of every event), as the series would hold them."""
+    if not segments:
+        return _at_rest(model, y_final)
+    times = [np.array([s.t0, s.t1]) for s in segments]
+    pp = _columns(model.params)
+    return _rows_of(model, [_values(model, s, tt, pp) for s, tt in zip(segments, times)], times)
+
+
+class _Sampler:
+    """The series of a segment run: ``n_samples`` points spread over the segments by their
+    length, both ends of every segment included (a Result's ``sampler``)."""
+
+    def __init__(self, model, segments, y_final, n_samples: int):
+        self.model, self.segments, self.y_final, self.n_samples = (model, segments, y_final,
+                                                                   n_samples)
+
+    def __call__(self) -> dict:
+        segments = self.segments
+        if not segments:
+            return _at_rest(self.model, self.y_final)
+        total = max(sum(s.t1 - s.t0 for s in segments), 1e-300)
+        times = [np.linspace(s.t0, s.t1,
+                             max(2, int(round(self.n_samples * (s.t1 - s.t0) / total)) + 1))
+                 for s in segments]
+        pp = _columns(self.model.params)
+        return _rows_of(self.model, [_values(self.model, s, tt, pp)
+                                     for s, tt in zip(segments, times)], times)
+
+
+def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 40) -> list:
+    """Peaks that can lie inside a segment (a damping law's force, a chain's middle vehicle, a
+    contact reloaded along its unloading line), located on the dense output to the solver's
+    accuracy: in each segment, each force, acceleration and deformation is sampled at
+    ``probes`` points and its largest sample's neighbourhood searched by golden sections, all
+    of them at once (one dense-output call per iteration for every quantity), to 1e-8 of the
+    bracket in time: the value, at a smooth maximum, to rounding. Returns one span ``(t0, t1,
+    force (K,), acceleration (N,) signed, deformation (K,))`` per segment; the deformation
+    only where ``turns`` (S, K) says it turns inside the segment (else -inf: its largest
+    value is at an end, which the event rows hold).
 
     (For the IF-D law of two vehicles the force is affine in a deformation that is monotone
-    inside every segment, so its peaks are at events, which the samples hold exactly.)"""
-    p = model.params
-    pp = dict(p, gap=p["gap"][:, None])
+    inside every segment of a first impact, so its peaks are at events, which the event rows
+    hold exactly.)"""
     K, N = model.K, model.N
     golden = 0.5 * (np.sqrt(5.0) - 1.0)
+    pp = _columns(model.params)
 
     def quantities(s, t):
-        """Forces and accelerations (K + N, len(t)) at times ``t``."""
-        yy = np.asarray(s.dense(np.atleast_1d(t)), float).reshape(model.n_state, -1)
-        F, _, a = model.accelerations(yy, s.disc, pp)
-        return np.concatenate([np.broadcast_to(np.asarray(F, float), (K, yy.shape[1])),
-                               np.broadcast_to(np.asarray(a, float), (N, yy.shape[1]))])
+        """Forces, accelerations and deformations (2K + N, len(t)) at times ``t``."""
+        q = _values(model, s, np.atleast_1d(t), pp)
+        return np.concatenate([q["force"], q["a"], q["deformation"]])
 
     spans = []
-    rows = np.arange(K + N)
-    for s in segments:
+    rows = np.arange(2 * K + N)
+    largest = (rows < K) | (rows >= K + N)   # forces and deformations: their largest value
+    for s, turn in zip(segments, turns):
         if not s.t1 > s.t0:
             continue
         tt = np.linspace(s.t0, s.t1, probes)
         q = quantities(s, tt)
         # forces: their largest value; accelerations: their largest magnitude, with its sign
-        j = np.where(rows < K, np.argmax(q, axis=1), np.argmax(np.abs(q), axis=1))
-        sgn = np.where(rows < K, 1.0, np.sign(q[rows, j]) + (q[rows, j] == 0))
+        j = np.where(largest, np.argmax(q, axis=1), np.argmax(np.abs(q), axis=1))
+        sgn = np.where(largest, 1.0, np.sign(q[rows, j]) + (q[rows, j] == 0))
         best = sgn * q[rows, j]
         lo, hi = tt[np.maximum(j - 1, 0)], tt[np.minimum(j + 1, probes - 1)]
         a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
@@ -197,5 +276,6 @@ def _refine_peaks(model, segments, r, probes: int = 33, iterations: int = 40) ->
             new = value(np.where(left, a, b))
             fa, fb = np.where(left, new, fa), np.where(left, fb, new)
         best = np.maximum(best, np.maximum(fa, fb))
-        spans.append((s.t0, s.t1, best[:K], sgn[K:] * best[K:]))
-    r._raise_peaks(spans)  # each impact's peaks over the segments it holds
+        spans.append((s.t0, s.t1, best[:K], sgn[K:K + N] * best[K:K + N],
+                      np.where(turn, best[K + N:], -np.inf)))
+    return spans

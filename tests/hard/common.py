@@ -210,7 +210,7 @@ def tolerance(r: lsc.Result) -> float:
     scale, the largest speed) for the integrators, not below their :func:`rebound_floor`. ``reference`` has no tolerance (first order in
     dt) and is only checked for convergence."""
     floor = max(rounding_floor(r.scene), position_floor(r))
-    if r.method in ("closed-form", "exact"):
+    if r.method in ("closed-form", "exact", "exact-chain"):
         return max(1e-12, floor)
     integ = r.method.split("-", 1)[1]
     rtol = r.tolerances["rtol"]

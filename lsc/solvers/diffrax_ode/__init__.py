@@ -1,24 +1,24 @@
 """diffrax backend: the whole hybrid solve as one compiled JAX function (see
-:mod:`lsc.solvers.diffrax_ode._impl`).
+:mod:`lsc.solvers.diffrax_ode.core`; its public names are gathered in
+:mod:`lsc.solvers.diffrax_ode.api`).
 
 This package's top level holds only the declaration, so reading it imports no JAX; the solver's
-names (``solve``, ``solve_batch``, ``INTEGRATORS``, ...) are loaded on first use (PEP 562).
+names (``solve``, ``solve_batch``, ``solve_params``, ``metrics_jacobian``, ``INTEGRATORS``, ...)
+are loaded on first use (PEP 562).
 """
 
 from __future__ import annotations
 
-import importlib
-
 from ..base import Backend
 from ..scipy_ode import FEATURES
 
-__all__ = ["BACKEND", "solve", "solve_batch", "INTEGRATORS", "BATCH_METRICS", "STATUS_CODES",
-           "TRACES"]
+__all__ = ["BACKEND", "solve", "solve_batch", "solve_params", "metrics_jacobian", "INTEGRATORS",
+           "BATCH_METRICS", "STATUS_CODES", "TRACES"]
 
 #: The diffrax backend's declaration: any number of vehicles, every law and effect, and a
 #: batch path (one vmapped compiled solve) for all of them.
 BACKEND = Backend(
-    name="diffrax", module=__name__ + "._impl",
+    name="diffrax", module=__name__ + ".api",
     options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"),
     vehicles=(2, None), solves=FEATURES, batch=FEATURES,
     batch_options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "chunk",
@@ -28,7 +28,7 @@ BACKEND = Backend(
 
 
 def __getattr__(name: str):
-    """The solver's names, from :mod:`._impl` (which imports JAX) on first use."""
+    """The solver's names, from :mod:`.api` (which imports JAX) on first use."""
     if name.startswith("__"):
         raise AttributeError(name)
     impl = BACKEND.implementation()

@@ -17,6 +17,7 @@ from ...errors import SceneError, SimulationError
 from ...model import HybridModel
 from ...result import METRICS
 from ...scene import Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
+from ... import metrics as _metrics
 from ... import parameters
 from .arrays import _batch_inputs, arrays_of_model
 from .kernels import _end_force, _next_event, _setup, _state
@@ -181,15 +182,15 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
     P = _batch_inputs(params)
     law, p, per_member = _batch_law(P)
     B = P["B"]
-    out = {k: np.full(B, np.nan) for k in ("v1", "v2", "dmax", "fmax", "dperm", "ec", "er",
-                                            "fpk", "tc", "ts", "tf")}
+    out = {k: np.full(B, np.nan) for k in ("v1", "v2", "t", "dmax", "fmax", "dperm", "ec", "er",
+                                            "ts", "tf")}
     out_status = np.zeros(B, dtype=int)
     out_events = np.zeros(B, dtype=int)
     v1, v2 = P["v1"], P["v2"]
     # the working set: one entry per member still in the batch (ix: its index in the input)
     w = {"ix": np.arange(B), "m1": P["m1"], "m2": P["m2"], "gap": P["gap"],
          "x1": np.zeros(B), "x2": np.zeros(B), "v1": v1.copy(), "v2": v2.copy(), "t": np.zeros(B),
-         "fpk": np.zeros(B), "ts": np.full(B, np.nan), "tf": np.full(B, np.nan),
+         "ts": np.full(B, np.nan), "tf": np.full(B, np.nan),
          "ff": np.full(B, np.inf) if P["failure_force"] is None else P["failure_force"],
          "vscale": np.maximum(np.maximum(np.abs(v1), np.abs(v2)),
                               np.maximum(np.abs(v1 - v2), 1e-300))}
@@ -198,8 +199,12 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
         st = {k: np.array(np.broadcast_to(v, (B,))) for k, v in st.items()}
         touching = st["mode"] != MODE_OPEN
         w["nev"] = touching.astype(int)
-        w["tc"] = np.where(touching, 0.0, np.nan)
         w["status"] = st["status"].astype(int)
+        # each member's first-impact record (lsc.metrics), carried through the stepper
+        F0 = np.where(touching, law.force(w["x1"] - w["x2"] - w["gap"], 0.0, st), 0.0)
+        first = _metrics.first_impacts_init(touching[:, None], _pair(v1, v2), F0[:, None],
+                                            _accelerations(F0, w), np)
+        out_first = {k: np.full(v.shape, np.nan) for k, v in first.items()}
         _fail_on_entry(law, w["x1"] - w["x2"] - w["gap"], st, w)
         while True:
             # members whose crash is over (or cannot go on) leave the batch with their record
@@ -209,8 +214,10 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             fin = code >= 0
             if fin.any():
                 j = w["ix"][fin]
-                for key in ("v1", "v2", "fpk", "tc", "ts", "tf"):
+                for key in ("v1", "v2", "t", "ts", "tf"):
                     out[key][j] = w[key][fin]
+                for key, v in first.items():
+                    out_first[key][j] = v[fin]
                 for key in ("dmax", "fmax", "dperm", "ec", "er"):
                     out[key][j] = st[key][fin]
                 out_status[j] = code[fin]
@@ -234,7 +241,9 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             w["t"] = w["t"] + tau
             bad |= ~np.isfinite(w["x1"] + w["x2"] + w["v1"] + w["v2"])
             D, W = w["x1"] - w["x2"] - w["gap"], w["v1"] - w["v2"]
-            w["fpk"] = np.maximum(w["fpk"], np.maximum(g.F0, _end_force(np, law, D, st)))
+            F = np.maximum(g.F0, _end_force(np, law, D, st))
+            first = _metrics.fold_peaks(first, F[:, None], _accelerations(F, w),
+                                        _metrics.ongoing(first, np), np)
             # keep the members still running, grouped by (mode, event): the law's branch
             # selections (where) then see long runs of equal conditions, several times faster
             live = np.flatnonzero(~fin)
@@ -243,6 +252,7 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             perm, key = live[order], key[order]
             w = {k: np.take(v, perm) for k, v in w.items()}
             st = {k: np.take(v, perm) for k, v in st.items()}
+            first = {k: np.take(v, perm, axis=0) for k, v in first.items()}
             p = {k: ((v.take(perm) if isinstance(v, _Rows) else np.take(v, perm))
                      if k in per_member else v) for k, v in p.items()}
             which, bad, D, W = (np.take(a, perm) for a in (which, bad, D, W))
@@ -267,13 +277,24 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
                 w["ff"] = np.where(failed, np.inf, w["ff"])
             opened = (new["mode"] == MODE_OPEN) & (st["mode"] != MODE_OPEN)
             closed = (new["mode"] != MODE_OPEN) & (st["mode"] == MODE_OPEN)
-            w["tc"] = np.where(closed & np.isnan(w["tc"]), w["t"], w["tc"])
+            first = _metrics.event_update(first, w["t"], _pair(w["v1"], w["v2"]),
+                                          closed[:, None], opened[:, None], np)
             w["ts"] = np.where(opened, w["t"], w["ts"])
             w["nev"] = w["nev"] + ~bad
             w["status"] = np.where(bad, NO_EVENT, new["status"]).astype(int)
             st = new
             _fail_on_entry(law, D, st, w)
-    return _batch_metrics(P, out, out_status, out_events)
+    return _batch_metrics(P, out, out_first, out_status, out_events)
+
+
+def _pair(v1, v2):
+    """(b, 2): the two vehicles' values side by side."""
+    return np.stack([v1, v2], axis=-1)
+
+
+def _accelerations(F, w):
+    """(b, 2): the vehicles' accelerations [acceleration] under contact force ``F`` (b,)."""
+    return _pair(-F / w["m1"], F / w["m2"])
 
 
 def _fail_on_entry(law, D, st, w) -> None:
@@ -287,37 +308,29 @@ def _fail_on_entry(law, D, st, w) -> None:
         w["ff"] = np.where(failed, np.inf, w["ff"])
 
 
-def _batch_metrics(P, out, status, events) -> dict:
-    """The Result metrics from each member's final velocities and hysteresis record."""
+def _batch_metrics(P, out, first, status, events) -> dict:
+    """The Result metrics (:func:`lsc.metrics.metrics`) from each member's first-impact record,
+    hysteresis record, final time and velocities; NaN where a member did not complete."""
     ok = status == 0
-    nan = np.where(ok, 1.0, np.nan)
-    v0 = np.stack([P["v1"], P["v2"]], axis=1)
-    vf = np.stack([out["v1"], out["v2"]], axis=1) * nan[:, None]
-    fpk = out["fpk"] * nan
+    v_last = _pair(out["v1"], out["v2"])
+    records = {k: out[k][:, None] for k in ("dmax", "dperm", "ec", "er")}
+    g = np.ones(P["B"]) if P["g"] is None else P["g"]
     with np.errstate(all="ignore"):
-        res = {
-            "delta_v": vf - v0,
-            "v_final": vf,
-            "peak_acceleration": np.stack([-fpk / P["m1"], fpk / P["m2"]], axis=1),
-            "duration": (out["ts"] - out["tc"]) * nan,
-            "peak_force": fpk,
-            "max_deformation": out["dmax"] * nan,
-            "permanent_deformation": out["dperm"] * nan,
-            "restitution": (vf[:, 1] - vf[:, 0]) / (P["v1"] - P["v2"]),
-            "restitution_energy": np.sqrt(out["er"] / out["ec"]) * nan,
-            "energy_absorbed": out["ec"] * nan,
-            "energy_returned": out["er"] * nan,
-            "contact_time": out["tc"] * nan,
-            "separation_time": out["ts"] * nan,
-            "failure_time": out["tf"] * nan,
-        }
-        if P["g"] is not None:
-            res["peak_acceleration_g"] = res["peak_acceleration"] / P["g"][:, None]
+        res = _metrics.metrics(first, records, v_last, g, out["tf"][:, None], out["t"], v_last,
+                               np, separation_time=out["ts"][:, None])
+    if P["g"] is None:
+        del res["peak_acceleration_g"]
+    res = {k: np.where(ok.reshape((-1,) + (1,) * (np.ndim(v) - 1)), v, np.nan)
+           for k, v in res.items()}
+    res = {k: v[:, 0] if np.ndim(v) == 2 and k not in _PER_VEHICLE else v
+           for k, v in res.items()}
     res["events"] = events
     res["status"] = status
     return res
 
 
+#: The metrics with one value per vehicle ((B, 2) from :func:`solve_arrays`; the others (B,)).
+_PER_VEHICLE = ("delta_v", "v_final", "peak_acceleration", "peak_acceleration_g")
 
 
 # ============================================================================ the contract

@@ -24,6 +24,7 @@ class _ScalarTransitions:
     than NumPy on 0-d values. Everything else is the model's own."""
 
     def __init__(self, model):
+        self.__dict__.update(model.__dict__)   # its attributes, read without __getattr__
         self._model = model
         self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
                     for law in model.laws]
@@ -32,6 +33,14 @@ class _ScalarTransitions:
 
     def __getattr__(self, name):
         return getattr(self._model, name)
+
+    def is_over(self, y, disc, t=0.0, horizon=None):
+        """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
+        open (never over before: its first condition), so not on the NumPy arrays of every
+        segment's end."""
+        if any(st["mode"] for st in disc[: self.K]):
+            return False
+        return self._model.is_over(y, disc, t, horizon)
 
     def apply_event(self, i, t, y, disc, p, xp=None):
         """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
@@ -65,7 +74,8 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     vtol = 1e-12 * model.v_scale
 
     law = model.laws[0]
-    peak = [0.0]
+    # the exact peaks of every segment: (t0, t1, force (1,), accelerations (2,) signed)
+    spans = []
     # a declared bumper failure (of contact 0): its part, event and force
     failure = [(model.parts.index(f), model.events.index((model.parts.index(f), 0)),
                 float(f.params["force"])) for f in getattr(model, "failures", [])]
@@ -80,7 +90,6 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
         brakes.append((j, b.i, float(b.params["mu"]) * m * gg, float(b.params["mus"]) * m * gg,
                        model.events.index((j, 0)), model.events.index((j, 1 if b.i else 2))))
     mass = (m1, m2)
-    peak_a = [0.0, 0.0]
 
     def advance(t0, y0, disc, horizon):
         st = disc[0]
@@ -115,13 +124,14 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
         if stopped is not None:
             end[2 + stopped] = 0.0   # the stop, exactly (held at zero while stuck)
         if not brakes:
-            peak[0] = max(peak[0], g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+            F = max(g.F0, _end_force(_PY, law, end[0] - end[1] - gap, st))
+            spans.append((t0, t0 + tau, (F,), (-F / m1, F / m2)))
         else:
             # the force over the segment: at its ends and where D turns inside it
             Ds = [g.D0, end[0] - end[1] - gap, *_turning_deformations(g, tau)]
             Fs = [_end_force(_PY, law, D, st) for D in Ds]
             lo_f, hi_f = min(Fs), max(Fs)
-            peak[0] = max(peak[0], hi_f)
+            peak_a = [0.0, 0.0]
             for i, sign in ((0, -1.0), (1, 1.0)):
                 if hold[i]:
                     continue
@@ -129,6 +139,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                     a = (sign * F + push[i]) / mass[i]
                     if abs(a) > abs(peak_a[i]):
                         peak_a[i] = a
+            spans.append((t0, t0 + tau, (hi_f,), tuple(peak_a)))
 
         def dense(tt, g=g, t0=t0, t1=t0 + tau, stopped=stopped, sep=sep):
             tt = np.asarray(tt, float)
@@ -138,21 +149,42 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                 out[2 + stopped] = np.where(tt >= t1, 0.0, out[2 + stopped])
             return out
 
+        ends.append((t0, t0 + tau, y0, end, disc))
         return Step(t0 + tau, np.array(end), event, dense, 1, 0)
 
+    ends = []   # per segment: (t0, t1, state at t0, state at t1, discrete state)
     start = time.perf_counter()
     segments, events, y, disc, totals = run_segments(_ScalarTransitions(model), advance,
                                                      t_end=t_end, max_events=max_events)
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": wall}
-    r = build_result(model, segments, events, y, disc, method="exact", tolerances={},
-                     stats=stats, n_samples=n_samples, y_post=totals["y_post"])
-    # The exact peaks (at event points and turning points, see _end_force) rather than the
-    # largest samples.
-    r.peak_force = np.array([peak[0]])
-    r.peak_acceleration = (np.array(peak_a) if brakes else
-                           np.array([-peak[0] / m1, peak[0] / m2]))
-    r.peak_acceleration_g = r.peak_acceleration / model.scene.g
-    return r
+    return build_result(model, segments, events, y, disc, method="exact", tolerances={},
+                        stats=stats, n_samples=n_samples, y_post=totals["y_post"], peaks=spans,
+                        rows=_event_rows(model, ends) if ends else None)
 
+
+def _event_rows(model, ends) -> dict:
+    """The rows at the event points (``t, x, v, a, deformation, force``, as
+    :func:`~lsc.solvers.segments.event_rows` gives them): both ends of every segment, at the
+    exact states there, each in its segment's discrete state, for all segments at once (the
+    discrete states stacked as arrays). The force at a segment end is the law's at the
+    deformation clamped to the segment's range (:func:`.kernels._end_force`: a rounding-level
+    overshoot times a very steep rebound line is no force); the accelerations follow from it
+    as the model's net forces and brakes make them."""
+    N, K = model.N, model.K
+    t = np.array([tt for t0, t1, *_ in ends for tt in (t0, t1)])
+    y = np.array([v for _, _, y0, y1, _ in ends for v in (y0, y1)], float).T     # (4, 2S)
+    disc = []
+    for j, part in enumerate(ends[0][4]):
+        cols = np.repeat([[d[j][key] for key in part] for *_, d in ends], 2, axis=0)
+        disc.append(dict(zip(part, cols.T)))
+    p = dict(model.params, gap=model.params["gap"][:, None])
+    D, _ = model.deformation(y, p)
+    F = np.array([_end_force(np, law, D[k], disc[k]) for k, law in enumerate(model.laws)])
+    net = model.net_forces(F)
+    a = net / p["m"][:, None]
+    for j, b in enumerate(model.brakes):
+        a[b.i] = b.accel(net[b.i], p["m"][b.i], disc[K + j], p["brakes"][j])
+    return {"t": t, "x": y[:N].T, "v": y[N:2 * N].T, "a": a.T, "deformation": D.T,
+            "force": F.T}

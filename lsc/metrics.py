@@ -1,0 +1,187 @@
+"""The metrics of a crash from its first-impact record: one definition for every backend.
+
+Array code for NumPy and ``jax.numpy`` alike (the ``xp`` argument), with any leading batch axes
+(``...``) and no Python control flow on values, so that a backend's compiled loop can carry the
+record and a Result computes its headline metrics with the same function.
+
+The **first-impact record** (``FIRST_KEYS``) holds, per contact ``k`` (vehicles ``k, k+1``):
+``contact_time`` (..., K) [time]: its first touch (NaN: never); ``v_touch`` (..., K, 2)
+[velocity]: the (rear, front) speeds then; ``first_end`` (..., K) [time]: the separation that
+ends that first impact (NaN: not ended); ``v_sep`` (..., K, 2) [velocity]: the speeds then;
+``peak_force`` (..., K) [force] and ``peak_acc`` (..., K, 2) [acceleration] (signed, largest
+magnitude) over that impact; and ``v_max`` (...) [velocity]: the run's largest speed, the scale
+of the pushed-shut test (:data:`lsc.impacts.PUSHED`). The definitions are those of the docs'
+metrics page: each vehicle's headline values come from the first impact of the adjacent contact
+that touched first (ties to the lower contact index); the duration is the scene's first
+impact's; a contact's velocity restitution is NaN where it never touched or was pushed shut.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
+           "event_update", "restitution", "in_g", "headline", "metrics"]
+
+#: A contact whose closing speed at touch is at most this fraction of the run's largest speed
+#: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
+PUSHED = 1e-6
+
+#: The fields of the first-impact record (see the module docstring).
+FIRST_KEYS = ("contact_time", "v_touch", "first_end", "v_sep", "peak_force", "peak_acc",
+              "v_max")
+
+
+def pairs(v, xp=np):
+    """(..., K, 2): the (rear, front) values of each contact's vehicles from ``v`` (..., N)."""
+    return xp.stack([v[..., :-1], v[..., 1:]], axis=-1)
+
+
+def first_impacts_init(closed0, v0, F0, a0, xp=np) -> dict:
+    """The record at t = 0: the contacts closed then (``closed0`` (..., K) bool) touch at 0 at
+    the initial speeds ``v0`` (..., N) [velocity]; their peaks start at the initial contact
+    forces ``F0`` (..., K) [force] and accelerations ``a0`` (..., N) [acceleration]."""
+    nan = xp.full(xp.shape(closed0), xp.nan)
+    closed2 = closed0[..., None]
+    return {"contact_time": xp.where(closed0, 0.0, nan),
+            "v_touch": xp.where(closed2, pairs(v0, xp), xp.nan),
+            "first_end": nan,
+            "v_sep": xp.full(xp.shape(closed0) + (2,), xp.nan),
+            "peak_force": xp.where(closed0, F0, 0.0),
+            "peak_acc": xp.where(closed2, pairs(a0, xp), 0.0),
+            "v_max": _fastest(v0, xp)}
+
+
+def ongoing(first, xp=np):
+    """(..., K): whether each contact's first impact has begun and not ended."""
+    return ~xp.isnan(first["contact_time"]) & xp.isnan(first["first_end"])
+
+
+def fold_peaks(first, F, a, where, xp=np) -> dict:
+    """The record with contact forces ``F`` (..., K) [force] and accelerations ``a`` (..., N)
+    [acceleration] folded into the peaks of the contacts ``where`` (..., K) (those whose first
+    impact is ongoing): the largest force, the acceleration of largest magnitude (signed)."""
+    A = pairs(a, xp)
+    larger = where[..., None] & (xp.abs(A) > xp.abs(first["peak_acc"]))
+    return dict(first,
+                peak_force=xp.where(where, xp.maximum(first["peak_force"], F),
+                                    first["peak_force"]),
+                peak_acc=xp.where(larger, A, first["peak_acc"]))
+
+
+def event_update(first, t, v, closes, opens, xp=np) -> dict:
+    """The record after an event at time ``t`` (...) [time] with speeds ``v`` (..., N)
+    [velocity], where the contacts ``closes`` (..., K) touch and ``opens`` (..., K) separate."""
+    t = xp.asarray(t)[..., None]
+    touch = closes & xp.isnan(first["contact_time"])
+    end = opens & ongoing(first, xp)
+    V = pairs(v, xp)
+    return dict(first,
+                contact_time=xp.where(touch, t, first["contact_time"]),
+                v_touch=xp.where(touch[..., None], V, first["v_touch"]),
+                first_end=xp.where(end, t, first["first_end"]),
+                v_sep=xp.where(end[..., None], V, first["v_sep"]),
+                v_max=xp.maximum(first["v_max"], _fastest(v, xp)))
+
+
+def _fastest(v, xp):
+    """(...): the largest magnitude of ``v`` (..., N), as an elementwise maximum over the N
+    vehicles (the same value as ``max(abs(v), axis=-1)``, many times cheaper on NumPy with a
+    long batch axis and few vehicles)."""
+    out = xp.abs(v[..., 0])
+    for i in range(1, v.shape[-1]):
+        out = xp.maximum(out, xp.abs(v[..., i]))
+    return out
+
+
+def restitution(v_touch, v_end, v_max, xp=np):
+    """Velocity restitution (Eq. 9) (...) [-] of impacts with (rear, front) speeds ``v_touch``
+    and ``v_end`` (..., 2) at touch and at separation: separation over closing speed, NaN where
+    the closing speed is at most :data:`PUSHED` times ``v_max`` (pushed shut) or not a number
+    (never touched)."""
+    closing = v_touch[..., 0] - v_touch[..., 1]
+    struck = closing > PUSHED * v_max
+    return xp.where(struck, (v_end[..., 1] - v_end[..., 0]) / xp.where(struck, closing, 1.0),
+                    xp.nan)
+
+
+def in_g(acceleration, g, xp=np):
+    """Accelerations (..., N) [acceleration] in g, for ``g`` (...) [acceleration]."""
+    return acceleration / xp.asarray(g, dtype=float)[..., None]
+
+
+def _pick(values, index, xp):
+    """``values`` (..., M) at ``index`` (..., P) along the last axis (as a mask, which jax.numpy
+    and NumPy take alike, batched or not, at a fraction of ``take_along_axis``'s cost on
+    small arrays)."""
+    hit = index[..., None] == xp.arange(values.shape[-1])
+    return xp.sum(xp.where(hit, values[..., None, :], 0), axis=-1)
+
+
+def headline(first, t_last, v_last, xp=np) -> dict:
+    """The headline metrics from the record at the end of the run (time ``t_last`` (...),
+    speeds ``v_last`` (..., N): the end of a first impact still open then): ``delta_v``,
+    ``peak_acceleration`` (..., N) (0 for a vehicle in no impact), ``peak_force``,
+    ``restitution``, ``contact_time`` (..., K) and ``duration`` (...) (0 if nothing touched)."""
+    ct, t1 = first["contact_time"], first["first_end"]
+    touched, ended = ~xp.isnan(ct), ~xp.isnan(t1)
+    v_end = xp.where(ended[..., None], first["v_sep"], pairs(v_last, xp))
+    dv = xp.where(touched[..., None], v_end - first["v_touch"], 0.0)
+    start = xp.where(touched, ct, xp.inf)
+    # each vehicle: its rear contact (side 1) when that touched first, else its front (side 0)
+    no = xp.zeros_like(touched[..., :1])
+    rear = xp.concatenate([no, start[..., :-1] <= start[..., 1:], ~no], axis=-1)
+    K = ct.shape[-1]
+    k_vehicle = xp.arange(K + 1) - rear.astype(int)           # (..., N)
+    k_vehicle = xp.clip(k_vehicle, 0, K - 1)
+    flat = k_vehicle * 2 + rear.astype(int)                    # into (..., K, 2) flattened
+    hit = _pick(touched, k_vehicle, xp) > 0
+
+    def per_vehicle(x):
+        return xp.where(hit, _pick(xp.reshape(x, x.shape[:-2] + (2 * K,)), flat, xp), 0.0)
+
+    k1 = xp.argmin(start, axis=-1)[..., None]                 # the scene's first impact
+    span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)
+    duration = _pick(span, k1, xp)[..., 0]
+    return {"delta_v": per_vehicle(dv), "peak_acceleration": per_vehicle(first["peak_acc"]),
+            "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
+            "restitution": restitution(first["v_touch"], v_end, first["v_max"][..., None], xp)}
+
+
+def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
+            separation_time=None) -> dict:
+    """Every metric of :data:`lsc.result.METRICS` (and ``contact_time``; ``separation_time``
+    when given) from the first-impact record ``first`` and the run's records.
+
+    ``records``: per contact (..., K) ``dmax, dperm`` [length], ``ec, er`` [energy] (max and
+    permanent deformation, absorbed and returned energy over the run); ``v_final`` (..., N)
+    [velocity] (after the last separation); ``g`` (...) [acceleration]; ``failure_time``
+    (..., K) [time] (NaN: never failed); ``t_last``, ``v_last``: as :func:`headline`.
+    ``restitution_energy`` (Eq. 10) is NaN where nothing was absorbed.
+    """
+    out = headline(first, t_last, v_last, xp)
+    ec, er = records["ec"], records["er"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e_energy = xp.sqrt(er / ec)
+    out.update({
+        "v_final": v_final,
+        "peak_acceleration_g": in_g(out["peak_acceleration"], g, xp),
+        "max_deformation": records["dmax"], "permanent_deformation": records["dperm"],
+        "energy_absorbed": ec, "energy_returned": er, "restitution_energy": e_energy,
+        "failure_time": failure_time})
+    if separation_time is not None:
+        out["separation_time"] = separation_time
+    return out
+
+
+#: The values :func:`metrics` gives per contact (with the contact axis last).
+PER_CONTACT = ("max_deformation", "permanent_deformation", "peak_force", "restitution",
+               "restitution_energy", "energy_absorbed", "energy_returned", "contact_time",
+               "separation_time", "failure_time")
+
+
+def one_contact(out: dict) -> dict:
+    """The metrics of a one-contact scene (:func:`metrics`' output) with the contact axis of
+    the per-contact values (:data:`PER_CONTACT`) dropped: ``(...)`` rather than ``(..., 1)``."""
+    return {name: (val[..., 0] if np.ndim(val) and name in PER_CONTACT else val)
+            for name, val in out.items()}

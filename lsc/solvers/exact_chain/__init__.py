@@ -1,0 +1,35 @@
+"""Exact backend for chains of three or more vehicles on IF-D contacts (``method="exact-chain"``).
+
+Between two events every contact is open or on an affine piece of its law, so the motion is
+linear, ``M x'' = -K x + f``, and is solved in closed form in the modes of ``M^{-1} K``
+(:mod:`._modes`); every event function is then a finite sum of sinusoids (and hyperbolic terms
+on a falling table piece) plus a quadratic, whose first downward zero is found with a guarantee
+that none is missed (:mod:`._roots`). The transitions are the model's own.
+
+This module holds the declaration only; :func:`solve` is imported on first use.
+"""
+
+from __future__ import annotations
+
+from ..base import Backend
+
+__all__ = ["BACKEND", "solve"]
+
+BACKEND = Backend(
+    name="exact-chain", module="lsc.solvers.exact_chain._solve",
+    options=("t_end", "n_samples", "max_events"), exact=True, cost=2.0, vehicles=(3, None),
+    solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
+                      "unloading:stiffness", "gap:open"}),
+    summary="exact piecewise solution of chains (modal closed form, guaranteed event search)",
+    # auto keeps SciPy for chains until this backend has its batch path, locked pairs for
+    # near-plastic contacts that chatter, and the speed of issue 13 (today about 7x SciPy's,
+    # and slower than SciPy where contacts chatter): it is used when asked for by name
+    auto=False)
+
+
+def __getattr__(name):
+    if name == "solve":
+        from ._solve import solve
+
+        return solve
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,271 @@
+"""The exact chain backend (``method="exact-chain"``): chains of three to six vehicles on IF-D
+contacts, against an independent modal event-driven solution (tests/hard/modal_chain.py, which
+shares no code with lsc) to 1e-10 and the tightest SciPy solve to 1e-8, with the same events;
+momentum to 1e-14 and the energy balance to 1e-12; an elastic chain with a gap passes the
+speed down the line exactly; ``auto`` does not pick it yet (``auto=False`` in its declaration:
+it has no batch path and no locked pairs, and is slower than SciPy where contacts chatter).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, reject, settings
+from hypothesis import strategies as st
+
+import lsc
+from lsc.model import HybridModel
+
+from hard.common import closing_scale, energy_error, log_uniform, relative_ke
+from hard.modal_chain import ModalChain
+from helpers import HARD
+
+#: Random chains in the default run (the issue asks for 200: they take ~80 s of CPU here, more
+#: than the default run can spend; --hard runs 200 and 100)
+MODAL_CASES, SCIPY_CASES = (200, 100) if HARD else (40, 15)
+
+#: The independent solution's event kinds, as lsc names them.
+KINDS = {"contact": "contact", "max": "max_deformation", "separation": "separation",
+         "reload": "reload_past_max"}
+
+
+@st.composite
+def chains(draw, tables=False, e_min=0.05, pushed_shut=True):
+    """A US chain of 3 to 6 vehicles: masses within 1:20, stiffnesses 1e3 to 1e7 lbf/ft,
+    restitutions in [e_min, 1], gaps or touching, some vehicles closing and some not
+    (``tables``: some contacts with a rising table that has a plateau; ``pushed_shut=False``:
+    no contact touching with no closing speed, which an integrator closes a moment late)."""
+    n = draw(st.integers(3, 6))
+    m = [draw(log_uniform(50.0, 1000.0)) for _ in range(n)]
+    v = [draw(st.one_of(st.just(0.0), st.floats(-10.0, 20.0)))]
+    closing = []
+    for _ in range(n - 1):
+        closing.insert(0, draw(st.one_of(st.just(0.0), log_uniform(0.1, 30.0))))
+        v.insert(0, v[0] + closing[0])
+    if v[0] == v[-1]:
+        v[0] += 10.0
+        closing[0] += 10.0
+    contacts = []
+    for j in range(n - 1):
+        k = draw(log_uniform(1e3, 1e7))
+        e = draw(st.one_of(st.just(1.0), st.floats(e_min, 1.0)))
+        loading = {"stiffness": k}
+        if tables and draw(st.booleans()):
+            d1 = draw(log_uniform(1e-3, 0.3))
+            loading = {"table": [[0.0, 0.0], [d1, k * d1], [2 * d1, k * d1],
+                                 [1e3, k * d1 + 10 * k * (1e3 - 2 * d1)]]}
+            e = min(e, 0.7)   # (above 1/√2 a max on the plateau needs a negative set)
+        gap = draw(st.one_of(st.just(0.0), log_uniform(1e-3, 1.0)))
+        if not pushed_shut and closing[j] == 0:
+            gap = draw(log_uniform(1e-3, 1.0))
+        contacts.append({"loading": loading, "unloading": {"restitution": e}, "gap": gap})
+    return {"units": "US", "vehicles": [{"mass": mi, "speed": vi} for mi, vi in zip(m, v)],
+            "contacts": contacts}
+
+
+def _after_touching(events, gaps):
+    """``[(time, contact, kind)]`` without the first closing of each contact that starts
+    touching (gap 0): it closes at once where it is closing or pushed shut, which the
+    independent solution, moving a function that starts on its surface off it by 1e-13 of its
+    scale, records a moment later (after D has grown to that size)."""
+    seen, out = set(), []
+    for e in events:
+        first = e[1] not in seen
+        seen.add(e[1])
+        if not (first and e[2] == "contact" and gaps[e[1]] == 0):
+            out.append(e)
+    return out
+
+
+def _without_touches(events, t_last):
+    """``[(time, contact, kind)]`` without the touches of D_max: a contact re-closing along an
+    elastic unloading line comes back to its max deformation exactly (a tangency), which
+    rounding turns into ``reload_past_max`` followed at once by ``max_deformation``, or into
+    nothing; the two readings differ by nothing measurable (the pair leaves the line for 1e-10 of
+    the run) and are both correct."""
+    out, skip = [], set()
+    for i, e in enumerate(events):
+        if i in skip:
+            continue
+        nxt = next((j for j in range(i + 1, len(events)) if events[j][1] == e[1]), None)
+        if (e[2] == "reload_past_max" and nxt is not None and events[nxt][2] == "max_deformation"
+                and events[nxt][0] - e[0] <= 1e-8 * t_last):
+            skip.add(nxt)
+            continue
+        out.append(e)
+    return out
+
+
+def _momentum_error(r) -> float:
+    """Change of the total momentum, relative to the initial momentum's magnitude."""
+    m = r.scene.masses
+    p0 = m @ r.scene.speeds
+    return float(abs(m @ r.v_final - p0) / max(abs(p0), 1e-300))
+
+
+def _check_conservation(r):
+    """Momentum to 1e-14 of the initial momentum, energy balance to 1e-12 (kinetic energy lost
+    in the centre-of-mass frame = absorbed - returned, every contact apart at the end)."""
+    m = r.scene.masses
+    if abs(m @ r.scene.speeds) > 1e-3 * (m @ np.abs(r.scene.speeds)):
+        assert _momentum_error(r) <= 1e-14, _momentum_error(r)
+    assert energy_error(r) <= 1e-12, energy_error(r)
+
+
+def _tie_order(events, t_last):
+    """``events`` (time, index, kind) with each run of events less than 1e-10 of ``t_last``
+    apart sorted by contact and kind (their order within the run is rounding's)."""
+    out, run = [], []
+    for e in events:
+        if run and e[0] - run[-1][0] > 1e-10 * t_last:
+            out += sorted(run, key=lambda x: x[1:])
+            run = []
+        run.append(e)
+    return out + sorted(run, key=lambda x: x[1:])
+
+
+@settings(max_examples=MODAL_CASES)
+@given(chains(e_min=0.2, pushed_shut=False))
+def test_chains_match_the_independent_modal_solution(scene):
+    """(Not with contacts touching at no closing speed: the reference moves a function that
+    starts on its surface off it by a fixed amount, which rounding in its modal sums can
+    exceed, and closes such contacts late or spuriously; nor with near-plastic contacts that a
+    neighbour pushes shut over and over, where each solution's rounding grows over the
+    events. SciPy is the reference for those, below.)"""
+    r = lsc.solve(scene, method="exact-chain")
+    s = r.scene
+    ref = ModalChain(s.masses, s.speeds,
+                     [c.law.loading.stiffness for c in s.contacts],
+                     [c.law.unloading.e for c in s.contacts], [c.gap for c in s.contacts])
+    try:
+        v_ref, events = ref.run(max_events=1000)
+    except RuntimeError:   # (a near-plastic chain the reference cannot finish)
+        reject()
+    if any(a[0] == b[0] and a[1] == b[1] for a, b in zip(events, events[1:])):
+        reject()   # (the reference closed and separated a contact at one instant: its restart
+        #            moved a function off its surface the wrong way; SciPy agrees with us there)
+    t_last = events[-1][0]
+    gaps = [c.gap for c in s.contacts]
+    ours = _without_touches(_after_touching([(e.time, e.index, e.kind) for e in r.events], gaps),
+                            t_last)
+    theirs = _without_touches(_after_touching([(t, j, KINDS[kind]) for t, j, kind in events],
+                                              gaps), t_last)
+    # (events of different contacts at one instant, to 1e-10 of the run — a symmetric chain's
+    # two max deformations — come in the order rounding gives them: compared as a set)
+    ours, theirs = _tie_order(ours, t_last), _tie_order(theirs, t_last)
+    assert [e[1:] for e in ours] == [e[1:] for e in theirs]
+    t, t_ref = np.array([e[0] for e in ours]), np.array([e[0] for e in theirs])
+    # (times to 1e-8: a contact closing after a long flight at a small closing rate, a
+    # difference of speeds each known to ~1e-11, is timed to that over the rate)
+    assert np.max(np.abs(t - t_ref)) <= 1e-8 * t_last
+    scale = closing_scale(s)
+    assert np.max(np.abs(r.v_final - v_ref)) <= 1e-10 * scale, (r.v_final, v_ref)
+    _check_conservation(r)
+
+
+#: The metrics compared with SciPy (each relative to its own scale, see _scale).
+METRICS = ("delta_v", "v_final", "peak_acceleration", "max_deformation",
+           "permanent_deformation", "peak_force", "energy_absorbed", "energy_returned",
+           "duration", "restitution_energy")
+
+
+def _scale(r, name):
+    if name in ("delta_v", "v_final"):
+        return closing_scale(r.scene)
+    if name == "permanent_deformation":
+        return np.max(r.max_deformation)
+    if name.startswith("energy"):
+        return relative_ke(r.scene.masses, r.scene.speeds)
+    return np.max(np.abs(getattr(r, name)))
+
+
+@settings(max_examples=SCIPY_CASES)
+@given(chains(tables=True, pushed_shut=False))
+def test_chains_with_tables_match_the_tightest_scipy_solve(scene):
+    r = lsc.solve(scene, method="exact-chain")
+    ref = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12)
+    t_last = ref.events[-1].time
+    assert ([e[1:] for e in _without_touches([(e.time, e.index, e.kind) for e in r.events],
+                                             t_last)] ==
+            [e[1:] for e in _without_touches([(e.time, e.index, e.kind) for e in ref.events],
+                                             t_last)])
+    for name in METRICS:
+        a, b = np.asarray(getattr(r, name), float), np.asarray(getattr(ref, name), float)
+        err = np.max(np.abs(a - b)) / _scale(ref, name)
+        assert err <= 1e-8, f"{name}: {a} vs {b} (scipy), off by {err:.3g}"
+    _check_conservation(r)
+
+
+def test_elastic_chain_with_a_gap_passes_the_speed_down_the_line():
+    """Three equal cars, e = 1, the front one 2 ft ahead: the rear car stops, the middle one
+    takes its speed and gives all of it to the front one (final speeds 0, 0, v0)."""
+    v0 = 10.0
+    scene = {"units": "US",
+             "vehicles": [{"mass": 100.0, "speed": v0}, {"mass": 100.0, "speed": 0.0},
+                          {"mass": 100.0, "speed": 0.0}],
+             "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 1.0}},
+                          {"loading": {"stiffness": 24000}, "unloading": {"restitution": 1.0},
+                           "gap": 2.0}]}
+    r = lsc.solve(scene, method="exact-chain")
+    assert np.max(np.abs(r.v_final - [0.0, 0.0, v0])) <= 1e-12 * v0, r.v_final
+    assert [(e.index, e.kind) for e in r.events] == [
+        (0, "contact"), (0, "max_deformation"), (0, "separation"), (1, "contact"),
+        (1, "max_deformation"), (1, "separation")]
+
+
+def test_contacts_pushed_shut_down_a_touching_line_close_at_once():
+    """Six equal cars touching, the rear one moving, e = 1: every contact is closed from t = 0
+    (the farthest one's deformation grows as t⁹, judged by its ninth derivative), and the
+    result agrees with the tightest SciPy solve (which closes them a moment late, when the
+    deformation exceeds its tolerance) to its accuracy."""
+    v0 = 10.0
+    scene = {"units": "US",
+             "vehicles": [{"mass": 50.0, "speed": v0}] + [{"mass": 50.0, "speed": 0.0}] * 5,
+             "contacts": [{"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}}]
+             * 5}
+    r = lsc.solve(scene, method="exact-chain")
+    assert [(e.time, e.index) for e in r.events[:5]] == [(0.0, k) for k in range(5)]
+    assert all(e.kind == "contact" for e in r.events[:5])
+    ref = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12)
+    assert [(e.index, e.kind) for e in r.events] == [(e.index, e.kind) for e in ref.events]
+    assert np.max(np.abs(r.v_final - ref.v_final)) <= 1e-9 * v0
+    _check_conservation(r)
+
+
+def _kelvin_chain():
+    return {"units": "US",
+            "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 100.0, "speed": 0.0},
+                         {"mass": 100.0, "speed": 0.0}],
+            "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
+                         {"law": "kelvin", "stiffness": 24000, "damping": 300}]}
+
+
+def test_auto_leaves_chains_to_scipy_until_exact_chain_is_an_auto_backend():
+    plain = {
+        "units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0}, {"mass": 80.0, "speed": 0.0},
+                                    {"mass": 120.0, "speed": 0.0}, {"mass": 90.0, "speed": 0.0}],
+        "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
+                     {"loading": {"table": [[0, 0], [0.1, 3000], [1, 60000]]},
+                      "unloading": {"stiffness": 90000}, "gap": 0.3},
+                     {"loading": {"stiffness": 40000}, "unloading": {"restitution": 0.1}}]}
+    model = HybridModel(lsc.Scene.load(plain))
+    assert lsc.solvers.backend("exact-chain").missing(model) == []   # it declares the chain
+    assert lsc.solvers.pick(model, "auto") == "scipy"                # but auto=False
+    assert lsc.solve(plain, method="exact-chain").method == "exact-chain"
+
+
+def test_a_feature_it_does_not_declare_is_refused_by_name_and_auto_sends_it_to_scipy():
+    scene = _kelvin_chain()
+    with pytest.raises(lsc.SceneError) as err:
+        lsc.solve(scene, method="exact-chain")
+    assert err.value.path == "solver.method"
+    assert "does not solve the Kelvin contact law" in str(err.value)
+    assert lsc.solvers.pick(HybridModel(lsc.Scene.load(scene)), "auto") == "scipy"
+
+
+def test_two_vehicles_are_refused():
+    scene = {"units": "US", "vehicles": [{"mass": 100.0, "speed": 10.0},
+                                         {"mass": 100.0, "speed": 0.0}],
+             "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}}]}
+    with pytest.raises(lsc.SceneError, match="it solves at least 3 vehicles, the scene has 2"):
+        lsc.solve(scene, method="exact-chain")
