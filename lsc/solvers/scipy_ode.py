@@ -37,6 +37,7 @@ from scipy.optimize import brentq
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect, integrable_features
 from ..errors import SimulationError
+from ..locking import locking_model
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
