@@ -36,7 +36,8 @@ import numpy as np
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .model import HybridModel
 
-__all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "locking_model",
+__all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "RING_RESTITUTION",
+           "locking_model",
            "can_lock", "clusters", "cluster_forces"]
 
 #: A contact that closes again at its permanent set at a closing speed of at most this fraction
@@ -47,6 +48,12 @@ LOCK_SPEED = 1e-3
 #: unloading line is over a million times stiffer than its loading, and a pair pressed on it
 #: rings at over a thousand times the contact's frequency (the integrators' step limit).
 LOCK_RESTITUTION = 1e-3
+
+#: A contact with a restitution of at most this locks at its max deformation where its
+#: neighbours press it with at least half its force there: on its unloading line (over 400 times
+#: stiffer than its loading) it could not separate, and would ring on the line and reload past
+#: its max once per ring, for as long as the push lasts.
+RING_RESTITUTION = 0.05
 
 
 class LockPart:
@@ -259,8 +266,13 @@ class LockingModel(HybridModel):
             if w == 2 and was["mode"] == MODE_LOADING and now["mode"] == MODE_OPEN:
                 new = self._try_lock(k, y, new, p, was, now, top, 0)
             elif w == 2 and was["mode"] == MODE_LOADING and (
-                    new[off + k]["watch"] or self._near_plastic(k, p)):
+                    new[off + k]["watch"] or self._restitution_below(k, p, LOCK_RESTITUTION)):
                 new = self._try_lock(k, y, new, p, was, now, top, 0)
+            elif w == 2 and was["mode"] == MODE_LOADING and self._restitution_below(
+                    k, p, RING_RESTITUTION, inclusive=True):
+                # (pressed by at least half its force, the pair cannot leave its line: it
+                # would ring on it and reload past its max, again and again)
+                new = self._try_lock(k, y, new, p, was, now, top, 0, floor=0.5)
             elif (w == 1 and was["mode"] == MODE_OPEN and now["mode"] == MODE_UNLOADING
                   and Dd[k] <= LOCK_SPEED * self.v_scale):
                 new[off + k] = dict(new[off + k], watch=1.0)
@@ -278,17 +290,20 @@ class LockingModel(HybridModel):
                 new = self._release(k, w == 1, y, new, p)
         return self._settle_locks(y, new, p)
 
-    def _near_plastic(self, k, p) -> bool:
-        """Whether contact ``k`` unloads by a restitution below :data:`LOCK_RESTITUTION`."""
-        c = p["contacts"][k]
-        return self.laws[k].unload_kind == "restitution" and float(c["e"]) < LOCK_RESTITUTION
+    def _restitution_below(self, k, p, bound: float, inclusive: bool = False) -> bool:
+        """Whether contact ``k`` unloads by a restitution below ``bound`` (or equal to it)."""
+        if self.laws[k].unload_kind != "restitution":
+            return False
+        e = float(p["contacts"][k]["e"])
+        return e <= bound if inclusive else e < bound
 
-    def _try_lock(self, k, y, new, p, saved, records, ftop, kind):
+    def _try_lock(self, k, y, new, p, saved, records, ftop, kind, floor=0.0):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
-        range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
-        the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
+        range (``floor * ftop < F_k < ftop``); ``saved``: the law's state to release into,
+        ``records``: the state whose history (``dmax, fmax, dperm, ec, er``) the locked
+        contact keeps."""
         force = self._hold_force(y, new, p, sorted({*self.locked(new), k}), k)
-        if not 0.0 < force < float(ftop):
+        if not floor * float(ftop) < force < float(ftop):
             return new
         D, _ = self.deformation(y, p)
         new = list(new)

@@ -20,9 +20,11 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
 
 import lsc
 from hard.common import chain, check_result, closing_scale
+from hard.test_chains import chains as hard_chains
 
 #: Fewer events than this (the brief's "a few events": the event limit was 10000).
 FEW_EVENTS = 200
@@ -127,3 +129,36 @@ def test_locked_force_is_newtons_law():
     # each vehicle of the cluster: its net force is its mass times the shared acceleration
     net = [F[0] - rows[1], rows[1] - rows[2], rows[2] - F[3]]
     assert np.allclose(net, m[1:4] * acc, rtol=1e-14, atol=1e-14)
+
+
+# ------------------------------------------------------------------ chains that never locked
+def _without_locks(monkeypatch):
+    """SciPy solving the plain model, as before locked pairs (no LockingModel)."""
+    import lsc.solvers.scipy_ode as scipy_ode
+
+    monkeypatch.setattr(scipy_ode, "locking_model", lambda model: model)
+
+
+#: The metrics compared with the solve before locked pairs.
+SAME_METRICS = ("delta_v", "v_final", "peak_acceleration", "max_deformation",
+                "permanent_deformation", "peak_force", "duration", "energy_absorbed")
+
+
+@settings(max_examples=8, deadline=None)
+@given(hard_chains(n_max=4, e_min=0.05).map(lambda case: case[1]))
+def test_chains_that_did_not_chatter_are_unchanged(scene):
+    """A chain the plain model solves (no event limit) gives the same metrics to 1e-10 with
+    locks: the locks engage only where the plain model chatters (restitutions of 0.05 or more
+    never lock at a max deformation; a slow closing again only locks a pressed turning point)."""
+    with pytest.MonkeyPatch.context() as mp:
+        _without_locks(mp)
+        try:
+            before = lsc.solve(scene, method="scipy", max_events=FEW_EVENTS)
+        except lsc.SimulationError:
+            return   # (chatters or rings: what the locks are for)
+    after = lsc.solve(scene, method="scipy", max_events=FEW_EVENTS)
+    assert [(e.time, e.kind, e.index) for e in after.events] == \
+        [(e.time, e.kind, e.index) for e in before.events]
+    for name in SAME_METRICS:
+        a, b = np.asarray(getattr(after, name), float), np.asarray(getattr(before, name), float)
+        assert np.all(np.abs(a - b) <= 1e-10 * np.max(np.abs(b), initial=1e-300)), name
