@@ -49,7 +49,7 @@ LOCK_SPEED = 1e-3
 #: rings at over a thousand times the contact's frequency (the integrators' step limit).
 LOCK_RESTITUTION = 1e-3
 
-#: A contact with a restitution of at most this locks at its max deformation where its
+#: A contact with a restitution below this locks at its max deformation where its
 #: neighbours press it with at least half its force there: on its unloading line (over 400 times
 #: stiffer than its loading) it could not separate, and would ring on the line and reload past
 #: its max once per ring, for as long as the push lasts.
@@ -269,12 +269,13 @@ class LockingModel(HybridModel):
                     new[off + k]["watch"] or self._restitution_below(k, p, LOCK_RESTITUTION)):
                 new = self._try_lock(k, y, new, p, was, now, top, 0)
             elif w == 2 and was["mode"] == MODE_LOADING and self._restitution_below(
-                    k, p, RING_RESTITUTION, inclusive=True):
+                    k, p, RING_RESTITUTION):
                 # (pressed by at least half its force, the pair cannot leave its line: it
                 # would ring on it and reload past its max, again and again)
                 new = self._try_lock(k, y, new, p, was, now, top, 0, floor=0.5)
             elif (w == 1 and was["mode"] == MODE_OPEN and now["mode"] == MODE_UNLOADING
-                  and Dd[k] <= LOCK_SPEED * self.v_scale):
+                  and Dd[k] <= LOCK_SPEED * self.v_scale
+                  and self._restitution_below(k, p, RING_RESTITUTION)):
                 new[off + k] = dict(new[off + k], watch=1.0)
             if int(new[k]["mode"]) == MODE_OPEN:
                 new[off + k] = dict(new[off + k], watch=0.0)
@@ -290,12 +291,10 @@ class LockingModel(HybridModel):
                 new = self._release(k, w == 1, y, new, p)
         return self._settle_locks(y, new, p)
 
-    def _restitution_below(self, k, p, bound: float, inclusive: bool = False) -> bool:
-        """Whether contact ``k`` unloads by a restitution below ``bound`` (or equal to it)."""
-        if self.laws[k].unload_kind != "restitution":
-            return False
-        e = float(p["contacts"][k]["e"])
-        return e <= bound if inclusive else e < bound
+    def _restitution_below(self, k, p, bound: float) -> bool:
+        """Whether contact ``k`` unloads by a restitution below ``bound``."""
+        return (self.laws[k].unload_kind == "restitution"
+                and float(p["contacts"][k]["e"]) < bound)
 
     def _try_lock(self, k, y, new, p, saved, records, ftop, kind, floor=0.0):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
