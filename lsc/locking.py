@@ -36,9 +36,8 @@ import numpy as np
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .model import HybridModel
 
-__all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "RING_RESTITUTION",
-           "locking_model",
-           "can_lock", "clusters", "cluster_forces"]
+__all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "WATCH_RESTITUTION",
+           "locking_model", "can_lock", "clusters", "cluster_forces"]
 
 #: A contact that closes again at its permanent set at a closing speed of at most this fraction
 #: of the speed scale locks at its next turning point on the line, where it is pressed.
@@ -49,11 +48,9 @@ LOCK_SPEED = 1e-3
 #: rings at over a thousand times the contact's frequency (the integrators' step limit).
 LOCK_RESTITUTION = 1e-3
 
-#: A contact with a restitution below this locks at its max deformation where its
-#: neighbours press it with at least half its force there: on its unloading line (over 400 times
-#: stiffer than its loading) it could not separate, and would ring on the line and reload past
-#: its max once per ring, for as long as the push lasts.
-RING_RESTITUTION = 0.05
+#: Only a contact with a restitution below this watches for a slow closing again
+#: (:data:`LOCK_SPEED`): from 0.05 up, a chain follows the IF-D law as before, event by event.
+WATCH_RESTITUTION = 0.05
 
 
 class LockPart:
@@ -268,14 +265,9 @@ class LockingModel(HybridModel):
             elif w == 2 and was["mode"] == MODE_LOADING and (
                     new[off + k]["watch"] or self._restitution_below(k, p, LOCK_RESTITUTION)):
                 new = self._try_lock(k, y, new, p, was, now, top, 0)
-            elif w == 2 and was["mode"] == MODE_LOADING and self._restitution_below(
-                    k, p, RING_RESTITUTION):
-                # (pressed by at least half its force, the pair cannot leave its line: it
-                # would ring on it and reload past its max, again and again)
-                new = self._try_lock(k, y, new, p, was, now, top, 0, floor=0.5)
             elif (w == 1 and was["mode"] == MODE_OPEN and now["mode"] == MODE_UNLOADING
                   and Dd[k] <= LOCK_SPEED * self.v_scale
-                  and self._restitution_below(k, p, RING_RESTITUTION)):
+                  and self._restitution_below(k, p, WATCH_RESTITUTION)):
                 new[off + k] = dict(new[off + k], watch=1.0)
             if int(new[k]["mode"]) == MODE_OPEN:
                 new[off + k] = dict(new[off + k], watch=0.0)
@@ -296,13 +288,12 @@ class LockingModel(HybridModel):
         return (self.laws[k].unload_kind == "restitution"
                 and float(p["contacts"][k]["e"]) < bound)
 
-    def _try_lock(self, k, y, new, p, saved, records, ftop, kind, floor=0.0):
+    def _try_lock(self, k, y, new, p, saved, records, ftop, kind):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
-        range (``floor * ftop < F_k < ftop``); ``saved``: the law's state to release into,
-        ``records``: the state whose history (``dmax, fmax, dperm, ec, er``) the locked
-        contact keeps."""
+        range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
+        the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
         force = self._hold_force(y, new, p, sorted({*self.locked(new), k}), k)
-        if not floor * float(ftop) < force < float(ftop):
+        if not 0.0 < force < float(ftop):
             return new
         D, _ = self.deformation(y, p)
         new = list(new)
