@@ -12,6 +12,8 @@ limit (issue 13, item 5, SciPy side).
   of the closing speed, so it must shrink in proportion as the pair's contact stiffens.
 - The locked force: a cluster's force from its neighbours' forces and the masses
   (:func:`lsc.locking.cluster_forces`) against Newton's law written out by hand.
+- Chains with restitutions from 0.05 up that SciPy finished before give the same events and
+  metrics (to 1e-10) with the locks in the model as without them.
 """
 
 from __future__ import annotations
@@ -144,7 +146,7 @@ SAME_METRICS = ("delta_v", "v_final", "peak_acceleration", "max_deformation",
                 "permanent_deformation", "peak_force", "duration", "energy_absorbed")
 
 
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=5, deadline=None)
 @given(hard_chains(n_max=4, e_min=0.05).map(lambda case: case[1]))
 def test_chains_that_did_not_chatter_are_unchanged(scene):
     """A chain the plain model solves (no event limit) gives the same metrics to 1e-10 with
