@@ -6,7 +6,7 @@ from .model import HybridModel
 from .scene import Scene
 from . import solvers
 
-__all__ = ["solve"]
+__all__ = ["solve", "model_of"]
 
 
 def solve(scene, method: str | None = None, **options):
@@ -35,9 +35,20 @@ def solve(scene, method: str | None = None, **options):
     Result
         Series, events and metrics in the scene's unit system.
     """
-    model = HybridModel(Scene.load(scene))
+    model = model_of(Scene.load(scene))
     backend, opts = resolve(model.scene, method, options, model=model)
     return solvers.run(model, backend, opts)
+
+
+def model_of(sc: Scene) -> HybridModel:
+    """The :class:`~lsc.model.HybridModel` of loaded scene ``sc``, built once per Scene object
+    and kept on it: a Scene is frozen and a model read-only once built, so solving the same
+    scene again (another method, other options) builds nothing twice."""
+    model = sc.__dict__.get("_model")
+    if model is None:
+        model = HybridModel(sc)
+        object.__setattr__(sc, "_model", model)
+    return model
 
 
 def resolve(sc: Scene, method: str | None, options: dict, *, model=None,

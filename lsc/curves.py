@@ -138,8 +138,14 @@ class Curve:
         energy absorbed up to the start [energy]. Equal to ``(d, f, slopes, cum_energy)`` for a
         curve without steps; a step's first point (zero width) is left out, so the piece
         after it starts at its own force."""
-        keep = np.append(np.diff(self.d) > 0, True)
-        return self.d[keep], self.f[keep], self.slopes[keep], self.cum_energy[keep]
+        pieces = self.__dict__.get("_pieces")
+        if pieces is None:   # (computed once: the curve is frozen; read-only arrays)
+            keep = np.append(np.diff(self.d) > 0, True)
+            pieces = (self.d[keep], self.f[keep], self.slopes[keep], self.cum_energy[keep])
+            for arr in pieces:
+                arr.setflags(write=False)
+            object.__setattr__(self, "_pieces", pieces)
+        return pieces
 
     @property
     def cum_energy(self) -> np.ndarray:

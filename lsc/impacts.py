@@ -101,9 +101,12 @@ def _peaks_between(spans, t0: float, t1: float, contact: int, pair: tuple):
     inside = [s for s in spans if s[0] >= t0 and s[1] <= t1]
     if not inside:
         return None, None
-    acc = np.array([np.asarray(s[3], float)[list(pair)] for s in inside])
-    pick = np.argmax(np.abs(acc), axis=0)
-    return max(float(s[2][contact]) for s in inside), acc[pick, [0, 1]]
+    peak = []
+    for i in pair:   # the first of the largest magnitude, with its sign (NaN first of all)
+        values = [float(s[3][i]) for s in inside]
+        nan = [v for v in values if v != v]
+        peak.append(nan[0] if nan else max(values, key=abs))
+    return max(float(s[2][contact]) for s in inside), tuple(peak)
 
 
 def _crush_between(spans, t0: float, t1: float, contact: int) -> float:
@@ -159,7 +162,7 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
         if t0 == 0.0:
             vs = np.asarray(speeds, float)[list(pair)]
         ve = v_post[list(pair)] if t1 == t_post else v[span.stop - 1, pair]
-        force, peak_a = _raised(float(np.max(rows["force"][span, k])),
+        force, peak_a = _raised(float(rows["force"][span, k].max()),
                                 tuple(_signed_peak(a[span, i]) for i in pair),
                                 *_peaks_between(spans, t0, t1, k, pair))
         closing, separating = float(vs[0] - vs[1]), float(ve[1] - ve[0])

@@ -118,6 +118,16 @@ def _pick(values, index, xp):
     return xp.sum(xp.where(hit, values[..., None, :], 0), axis=-1)
 
 
+def _by_vehicle(front, back, rear, pad, xp):
+    """(..., N): each vehicle's value from its contacts' (..., K) values ``front`` (side 0: the
+    contact's rear vehicle) and ``back`` (side 1: its front vehicle): from its rear contact's
+    ``back`` where ``rear`` (..., N), else from its front contact's ``front``. The first vehicle
+    has no rear contact and the last no front one (``rear`` is False and True there), so the
+    padding ``pad`` (..., 1) (zeros) is never picked."""
+    return xp.where(rear, xp.concatenate([pad, back], axis=-1),
+                    xp.concatenate([front, pad], axis=-1))
+
+
 def headline(first, t_last, v_last, xp=np) -> dict:
     """The headline metrics from the record at the end of the run (time ``t_last`` (...),
     speeds ``v_last`` (..., N): the end of a first impact still open then): ``delta_v``,
@@ -131,14 +141,10 @@ def headline(first, t_last, v_last, xp=np) -> dict:
     # each vehicle: its rear contact (side 1) when that touched first, else its front (side 0)
     no = xp.zeros_like(touched[..., :1])
     rear = xp.concatenate([no, start[..., :-1] <= start[..., 1:], ~no], axis=-1)
-    K = ct.shape[-1]
-    k_vehicle = xp.arange(K + 1) - rear.astype(int)           # (..., N)
-    k_vehicle = xp.clip(k_vehicle, 0, K - 1)
-    flat = k_vehicle * 2 + rear.astype(int)                    # into (..., K, 2) flattened
-    hit = _pick(touched, k_vehicle, xp) > 0
+    hit = _by_vehicle(touched, touched, rear, no, xp)
 
     def per_vehicle(x):
-        return xp.where(hit, _pick(xp.reshape(x, x.shape[:-2] + (2 * K,)), flat, xp), 0.0)
+        return xp.where(hit, _by_vehicle(x[..., 0], x[..., 1], rear, no, xp), 0.0)
 
     k1 = xp.argmin(start, axis=-1)[..., None]                 # the scene's first impact
     span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)

@@ -20,6 +20,8 @@ failures'. Events are numbered in the same order; event ``i`` is event ``which``
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from .contact import STATUS, make_law
@@ -105,7 +107,6 @@ class HybridModel:
         self.event_units = tuple(_event_unit(self.parts[j], self.parts[j].event_kinds[w])
                                  for j, w in self.events)
         self.v_scale = float(self.speed_scale())
-        self.event_linear, self.piece_event = self._piece_layout()
 
     def _more_parts(self) -> list:
         return []   # (parts after the effects: lsc.locking.LockingModel's locks)
@@ -224,9 +225,12 @@ class HybridModel:
         return xp.asarray([xp.broadcast_to(xp.asarray(v, dtype=float), xp.shape(D[0]))
                            for v in vals])
 
+    event_linear = property(lambda self: self._layout[0], doc="(n_events,) bool: linear in y?")
+    piece_event = property(lambda self: self._layout[1], doc="(n_pieces,) int: each one's event")
+    _layout = cached_property(lambda self: self._piece_layout())  # (built when first asked for)
+
     def _piece_layout(self):
-        """(``event_linear`` (n_events,) bool, ``piece_event`` (n_pieces,) int): which events are
-        linear in the state (each part's declaration), and the event each piece belongs to."""
+        """(:attr:`event_linear`, :attr:`piece_event`)."""
         _, disc = self.initial()
         counts = [len(pieces) for k, law in enumerate(self.laws)
                   for pieces in law.event_pieces(0.0, 0.0, disc[k])]
@@ -339,8 +343,8 @@ class HybridModel:
     def speed_scale(self, p=None, xp=np):
         """The speed scale [velocity]: the largest initial speed or speed difference."""
         v = (self.params if p is None else p)["v0"]
-        fastest = xp.max(xp.abs(v), axis=-1)
-        closing = xp.max(xp.abs(xp.diff(v, axis=-1)), axis=-1)
+        fastest = xp.abs(v).max(axis=-1)
+        closing = xp.abs(v[..., 1:] - v[..., :-1]).max(axis=-1)
         return xp.maximum(xp.maximum(fastest, closing), 1e-300)
 
     def _slopes(self, p, keys, xp):
@@ -358,16 +362,16 @@ class HybridModel:
         not finite are left out; with none left the slope is 1."""
         p = self.params if p is None else p
         mus = self._mu(p, xp)
-        mu = xp.max(mus, axis=-1) if slowest else xp.min(mus, axis=-1)
+        mu = mus.max(axis=-1) if slowest else mus.min(axis=-1)
         s = self._slopes(p, ("ls", "k") if loading else ("ls", "su", "k"), xp)
         if s is None:
             return xp.sqrt(mu)
         valid = xp.isfinite(s) & (s > 0)
         if slowest:
-            k = xp.min(xp.where(valid, s, xp.inf), axis=-1)
+            k = xp.where(valid, s, xp.inf).min(axis=-1)
             k = xp.where(xp.isfinite(k), k, 1.0)
         else:
-            k = xp.max(xp.where(valid, s, 0.0), axis=-1)
+            k = xp.where(valid, s, 0.0).max(axis=-1)
             k = xp.where(k > 0, k, 1.0)
         return xp.sqrt(mu / k)
 
@@ -400,24 +404,20 @@ class HybridModel:
         p = self.params if p is None else p
         batch = xp.shape(p["m"])[:-1]
         v = self.speed_scale(p, xp)
-        w = -xp.diff(p["v0"], axis=-1)
-        w = xp.where(w > 1e-12 * xp.expand_dims(v, -1), w, xp.inf)
-        w_min = xp.min(w, axis=-1)
+        w = p["v0"][..., :-1] - p["v0"][..., 1:]
+        w = xp.where(w > 1e-12 * v[..., None], w, xp.inf)
+        w_min = w.min(axis=-1)
         w_min = xp.where(xp.isfinite(w_min), w_min, v)
-        extent = xp.sum(p["gap"], axis=-1)
+        extent = p["gap"].sum(axis=-1)
         for c in p["contacts"]:
             for key in ("ld", "ud"):   # (a table's last breakpoint: BIG, 1e300, is no extent)
                 if key in c:
                     val = xp.abs(xp.reshape(c[key], batch + (-1,)))
-                    extent = extent + xp.max(xp.where(val < 1e299, val, 0.0), axis=-1)
+                    extent = extent + xp.where(val < 1e299, val, 0.0).max(axis=-1)
         return 1e6 * self.time_scale(slowest=True, p=p, xp=xp) + 4.0 * extent / w_min + 1.0
 
-    @property
-    def crash_horizon(self) -> float:
-        """:meth:`horizon`, computed once [s]."""
-        if not hasattr(self, "_crash_horizon"):
-            self._crash_horizon = float(self.horizon())
-        return self._crash_horizon
+    #: :meth:`horizon`, computed once [s].
+    crash_horizon = cached_property(lambda self: float(self.horizon()))
 
     def natural_frequency(self, disc, p=None, xp=np):
         """A bound on the highest angular frequency [1/s] of the motion in the frozen discrete

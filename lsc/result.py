@@ -379,10 +379,10 @@ def _first_of_contact(r: Result) -> list:
 def _first_record(impacts, K: int, v_max: float) -> dict:
     """The first-impact record (:data:`lsc.metrics.FIRST_KEYS`) of the impacts: per contact,
     its first impact's touch, separation (NaN while open), speeds and peaks."""
-    first = {"contact_time": np.full(K, np.nan), "v_touch": np.full((K, 2), np.nan),
-             "first_end": np.full(K, np.nan), "v_sep": np.full((K, 2), np.nan),
-             "peak_force": np.zeros(K), "peak_acc": np.zeros((K, 2)), "v_max": np.float64(v_max)}
-    for k in range(K):
+    nan, nan2 = float("nan"), (float("nan"),) * 2
+    first = {"contact_time": [nan] * K, "v_touch": [nan2] * K, "first_end": [nan] * K,
+             "v_sep": [nan2] * K, "peak_force": [0.0] * K, "peak_acc": [(0.0, 0.0)] * K}
+    for k in range(K):   # (in Python, then one array each: cheaper than filling arrays)
         m = next((m for m in impacts if m.contact == k), None)
         if m is None:
             continue
@@ -390,7 +390,14 @@ def _first_record(impacts, K: int, v_max: float) -> dict:
         if m.separated:
             first["first_end"][k], first["v_sep"][k] = m.t_end, m.v_end
         first["peak_force"][k], first["peak_acc"][k] = m.peak_force, m.peak_acceleration
+    first = {key: np.array(value, float).reshape((K, 2) if key in _PAIRED else (K,))
+             for key, value in first.items()}
+    first["v_max"] = np.float64(v_max)
     return first
+
+
+#: The first-impact record's fields with a (rear, front) pair per contact.
+_PAIRED = ("v_touch", "v_sep", "peak_acc")
 
 
 def _failure_times(scene, events, rows) -> np.ndarray:

@@ -49,9 +49,8 @@ def check_keywords(function: str, options: dict, own) -> None:
     """Refuse keywords of ``function`` that are neither its own (``own``) nor an option of some
     backend (``rtol``, ``dt``, ...): a ``SceneError`` whose path is the keyword, listing what is
     accepted. (Options that apply to another backend than the one used are refused by it.)"""
-    from .solvers import METHODS, options_of
-
-    solver = sorted(set().union(*(options_of(m) for m in METHODS)) - set(own))
+    # (every option some backend takes, without importing every backend's module)
+    solver = sorted(solvers.ALL_OPTIONS - set(own))
     for name in options:
         if name not in solver:
             raise SceneError(str(name), f"{function}() got an unknown keyword {name!r}; it "
@@ -226,7 +225,21 @@ def _to_numbers(scene: Scene, path: str, arr: np.ndarray) -> np.ndarray:
     return out
 
 
+class _NoBar:
+    """The progress bar of a study that shows none (``progress=False``: tqdm not imported)."""
+
+    def update(self, k: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 def _progress(total: int, progress):
+    """A tqdm bar over ``total`` members: shown if ``progress``, never if False, and with
+    ``None`` where the output is a terminal."""
+    if progress is False:
+        return _NoBar()
     from tqdm.auto import tqdm
 
     return tqdm(total=total, disable=(None if progress is None else not progress),

@@ -6,10 +6,16 @@ repeats, scene already loaded) by ``exact-chain`` and by ``scipy`` DOP853 at rto
 ratio, and how far the SciPy metrics are from the exact ones (max over ΔV, peak force, max
 deformation, relative to each metric's scale).
 
-    python scripts/bench_chain.py [--repeat 20]
+    python scripts/bench_chain.py [--repeat 20] [--chatter 10 [--seed 1] [--max-events 150]]
 
-Also printed: the time of the exact segment loop alone (``stats["wall_time"]``: the Result's
-sampled series and metrics come on top of it).
+Also printed: the time of the exact segment loop alone (``stats["wall_time"]``) and what comes
+on top of it in ``lsc.solve`` (the model, the backend's checks, the Result's metrics).
+
+``--chatter N``: N random near-plastic chains (3 or 4 vehicles, restitutions 0 to 0.05,
+stiffnesses 1e2 to 1e9 lbf/ft, tables with a plateau, gaps: the near-plastic strategy of
+tests/hard/test_chains.py), where a contact at its permanent set that a neighbour pushes shut
+closes and separates over and over: the wall time and outcome of ``auto`` (exact-chain) and of
+SciPy (its default DOP853), and how far their final speeds are apart where both finish.
 
 Target (issue 13): exact-chain at least 50x faster than SciPy at rtol = 1e-10.
 """
@@ -55,6 +61,9 @@ def difference(r, ref) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=20)
+    ap.add_argument("--chatter", type=int, default=0, help="near-plastic chains to compare")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--max-events", type=int, default=150)
     args = ap.parse_args()
     scene = lsc.Scene.load(SCENE)
     lsc.solve(scene, method="exact-chain")   # (imports and first-call costs out of the way)
@@ -66,7 +75,70 @@ def main() -> None:
     print(f"{'exact-chain':<22}{1e3 * t_exact:>16.3f}{1e3 * loop_exact:>17.3f}{0.0:>15.1e}")
     print(f"{'scipy DOP853 1e-10':<22}{1e3 * t_scipy:>16.3f}{1e3 * loop_scipy:>17.3f}"
           f"{difference(scipy, exact):>15.1e}")
-    print(f"speed-up of exact-chain: {t_scipy / t_exact:.1f}x (target 50x)")
+    print(f"speed-up of exact-chain: {t_scipy / t_exact:.1f}x (target 50x); of its "
+          f"{1e3 * t_exact:.3f} ms, {1e3 * (t_exact - loop_exact):.3f} ms outside the segment loop")
+    if args.chatter:
+        chatter(args.chatter, np.random.default_rng(args.seed), args.max_events)
+
+
+def _log_uniform(rng, lo: float, hi: float) -> float:
+    return float(10.0 ** rng.uniform(np.log10(lo), np.log10(hi)))
+
+
+def near_plastic_chain(rng) -> dict:
+    """A random near-plastic chain (the strategy of tests/hard/test_chains.py, e <= 0.05)."""
+    n = int(rng.integers(3, 5))
+    start = rng.choice(["gaps", "touching", "simultaneous", "at_rest"])
+    if start == "simultaneous":
+        closing, gaps = [_log_uniform(rng, 1e-2, 50.0)] * (n - 1), \
+            [_log_uniform(rng, 1e-3, 1.0)] * (n - 1)
+    elif start == "at_rest":
+        closing, gaps = [_log_uniform(rng, 1e-2, 50.0)] + [0.0] * (n - 2), [0.0] * (n - 1)
+    else:
+        closing = [0.0 if rng.random() < 0.3 else _log_uniform(rng, 1e-3, 50.0)
+                   for _ in range(n - 1)]
+        closing[0] = closing[0] or 1.0
+        gaps = [0.0 if start == "touching" or rng.random() < 0.3 else
+                _log_uniform(rng, 1e-4, 1.0) for _ in range(n - 1)]
+    v = [0.0 if rng.random() < 0.5 else float(rng.uniform(-30.0, 60.0))]
+    for c in reversed(closing):
+        v.insert(0, v[0] + c)
+    contacts = []
+    for gap in gaps:
+        k0 = _log_uniform(rng, 1e2, 1e9)
+        d1 = _log_uniform(rng, 1e-3, 0.5)
+        loading = {"stiffness": k0} if rng.random() < 0.5 else {"table": [
+            [0.0, 0.0], [d1, k0 * d1], [2 * d1, k0 * d1], [1e3, k0 * d1 + 10 * k0 * 1e3]]}
+        e = rng.choice([0.0, 1e-6, float(rng.uniform(0.0, 0.05)),
+                        _log_uniform(rng, 1e-12, 0.05)])
+        contacts.append({"loading": loading, "unloading": {"restitution": float(e)},
+                         "gap": gap})
+    return {"units": "US", "contacts": contacts,
+            "vehicles": [{"mass": _log_uniform(rng, 1.0, 1000.0), "speed": vi} for vi in v]}
+
+
+def _timed(scene, **kw):
+    """``(wall time [s], "ok" or the SimulationError's first words, final speeds or None)``."""
+    t = time.perf_counter()
+    try:
+        r = lsc.solve(scene, **kw)
+        return time.perf_counter() - t, f"ok, {len(r.events)} events", r.v_final
+    except lsc.SimulationError as err:
+        return time.perf_counter() - t, str(err)[:40], None
+
+
+def chatter(n: int, rng, max_events: int) -> None:
+    """``auto`` (exact-chain) against SciPy on ``n`` near-plastic chains."""
+    print(f"\nnear-plastic chains, max_events = {max_events}:")
+    print(f"{'':>3}{'auto [s]':>10}  {'outcome':<42}{'scipy [s]':>10}  {'outcome':<42}dv/v0")
+    for j in range(n):
+        scene = near_plastic_chain(rng)
+        assert lsc.solvers.pick(lsc.Scene.load(scene), "auto") == "exact-chain"
+        ta, oa, va = _timed(scene, max_events=max_events)
+        ts, os_, vs = _timed(scene, method="scipy", max_events=max_events)
+        v0 = max(abs(v["speed"]) for v in scene["vehicles"])
+        dv = f"{np.max(np.abs(va - vs)) / v0:.1e}" if va is not None and vs is not None else "-"
+        print(f"{j:>3}{ta:>10.3f}  {oa:<42}{ts:>10.3f}  {os_:<42}{dv}", flush=True)
 
 
 if __name__ == "__main__":

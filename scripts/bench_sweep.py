@@ -18,6 +18,12 @@ least 20 times the throughput of looping SciPy, at 1e-9 accuracy.
 
     python scripts/bench_sweep.py                  # 10^4 and 10^5 members
     python scripts/bench_sweep.py --sizes 10000 --scipy-subset 200 --workers 1
+    python scripts/bench_sweep.py --cold-only      # the cold first exact sweep alone
+
+First, the cold first exact sweep: a fresh process's ``import lsc`` and its first
+``lsc.sweep(..., method="exact")`` of ``--cold`` members (the best of ``--cold-repeat``
+processes): what a script waits for its first numbers, imports included; once with the
+bytecode cached (as installed), once compiling every module (as with PYTHONDONTWRITEBYTECODE).
 """
 
 from __future__ import annotations
@@ -25,8 +31,10 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import os
 import subprocess
 import sys
+import tempfile
 import textwrap
 
 SCENE = {
@@ -74,6 +82,47 @@ WORKER = textwrap.dedent("""
 """)
 
 
+COLD = textwrap.dedent("""
+    import json, sys, time
+    start, cpu = time.perf_counter(), time.process_time()
+    import numpy as np
+    import lsc
+    cfg = json.loads(sys.argv[1])
+    speeds = np.random.default_rng(cfg["seed"]).uniform(1, 8, cfg["n"])
+    lsc.sweep(lsc.Scene.load(cfg["scene"]), {"vehicles.0.speed": speeds}, method="exact",
+              progress=False)
+    print(json.dumps({"wall": time.perf_counter() - start, "cpu": time.process_time() - cpu}))
+""")
+
+
+def cold(n: int, repeat: int, seed: int, bytecode: bool) -> tuple[float, float]:
+    """The best of ``repeat`` fresh processes' first exact sweep of ``n`` members, counted from
+    before ``import lsc`` (imports included: what a script's first sweep waits): wall time and
+    the process's CPU time [s] (the CPU time is the steadier on a busy machine).
+    ``bytecode``: with the modules' compiled bytecode cached (in a temporary folder, written by
+    one untimed run first), as an installed package has it; else every source is compiled in
+    each process (``PYTHONDONTWRITEBYTECODE`` and no cache)."""
+    cfg = json.dumps({"scene": SCENE, "n": n, "seed": seed})
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ)
+        if bytecode:   # (in the prefix, the installed packages' bytecode is written too)
+            env.pop("PYTHONDONTWRITEBYTECODE", None)
+            env["PYTHONPYCACHEPREFIX"] = cache
+        else:          # (theirs is read where it is installed)
+            env["PYTHONDONTWRITEBYTECODE"] = "1"
+        walls, cpus = [], []
+        for i in range(repeat + bytecode):
+            proc = subprocess.run([sys.executable, "-c", COLD, cfg], capture_output=True,
+                                  text=True, env=env)
+            if proc.returncode:
+                raise SystemExit(f"cold exact sweep failed:\n{proc.stderr[-2000:]}")
+            if i or not bytecode:   # (the first run with bytecode only writes the cache)
+                out = json.loads(proc.stdout.strip().splitlines()[-1])
+                walls.append(out["wall"])
+                cpus.append(out["cpu"])
+    return min(walls), min(cpus)
+
+
 def run(method: str, n: int, seed: int, take: int | None = None, options=None,
         workers=None, chunk: int = 1024) -> dict:
     """One configuration in a fresh process: wall time [s], compile time [s] (diffrax), peak
@@ -112,7 +161,22 @@ def main(argv=None) -> int:
     ap.add_argument("--chunk", type=int, default=1024,
                     help="diffrax members in one compiled call (compiled once for this shape)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--cold", type=int, default=100, metavar="N",
+                    help="members of the cold first exact sweep (0: not measured)")
+    ap.add_argument("--cold-repeat", type=int, default=7,
+                    help="fresh processes for the cold first sweep (the best counts)")
+    ap.add_argument("--cold-only", action="store_true",
+                    help="measure the cold first exact sweep only")
     args = ap.parse_args(argv)
+    if args.cold:
+        cached = cold(args.cold, args.cold_repeat, args.seed, True)
+        compiling = cold(args.cold, args.cold_repeat, args.seed, False)
+        print(f"cold first exact sweep ({args.cold} members, fresh process, imports included, "
+              f"best of {args.cold_repeat}): {cached[0]:.3f} s (CPU {cached[1]:.3f} s) with the "
+              f"bytecode cached, {compiling[0]:.3f} s (CPU {compiling[1]:.3f} s) compiling every "
+              "module")
+    if args.cold_only:
+        return 0
     have_diffrax = importlib.util.find_spec("diffrax") is not None
     print(f"{'method':<30} {'members':>8} {'wall [s]':>9} {'compile [s]':>11} "
           f"{'scenes/s':>10} {'max rel err':>12} {'peak RSS [MB]':>14}")

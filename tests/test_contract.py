@@ -33,6 +33,13 @@ def chain(n=3):
                          for _ in range(n - 1)]}
 
 
+def kelvin_chain():
+    """A chain that no exact backend declares (a Kelvin contact)."""
+    scene = chain(3)
+    scene["contacts"][1] = {"law": "kelvin", "stiffness": 24000.0, "damping": 300.0}
+    return scene
+
+
 def test_every_declaration_is_well_formed():
     for b in solvers.backends():
         assert isinstance(b, Backend)
@@ -53,7 +60,8 @@ def test_reading_the_declarations_imports_no_jax():
 @pytest.mark.parametrize("scene, expected", [
     (two_cars(), "closed-form"),
     (two_cars(loading={"table": [[0, 0], [0.5, 20000], [1.0, 24000]]}), "exact"),
-    (chain(3), "scipy"),
+    (chain(3), "exact-chain"),
+    (kelvin_chain(), "scipy"),
     (two_cars(law="kelvin", loading=None, unloading=None, stiffness=24000.0, restitution=0.4),
      "closed-form"),
     (two_cars(law="hunt-crossley", loading=None, unloading=None, stiffness=24000.0,
@@ -65,7 +73,7 @@ def test_auto_picks_the_cheapest_exact_backend_that_declares_the_scene(scene, ex
 
 
 def test_a_large_batch_with_no_exact_backend_goes_to_the_batched_integrator():
-    model = HybridModel(lsc.Scene.load(chain(3)))
+    model = HybridModel(lsc.Scene.load(kelvin_chain()))
     assert solvers.pick(model, "auto", members=10) == "scipy"
     big = solvers.pick(model, "auto", members=solvers.LARGE_BATCH)
     assert big == ("diffrax" if HAVE_DIFFRAX else "scipy")

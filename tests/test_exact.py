@@ -811,3 +811,24 @@ def test_end_of_a_near_plastic_rebound_line_is_no_force():
     np.testing.assert_allclose(r.peak_acceleration, [-F / m1, F / m2], rtol=1e-12)
     assert r.impacts[0].peak_force == r.peak_force[0]
     assert np.all(np.abs(r.force) <= r.peak_force[0] * (1 + 1e-12))
+
+
+def test_a_scene_solved_again_reuses_its_model_and_its_numbers(monkeypatch):
+    """``lsc.solve`` builds a loaded scene's model once (a Scene is frozen): solving it again,
+    by any method, builds none and gives the same numbers; a scene with other values (a new
+    Scene) gets its own model, and its own numbers."""
+    table = {"table": [[0, 0], [0.02, 60000], [0.04, 60000], [0.06, 40000], [0.1, 300000]]}
+    sc = lsc.Scene.load(two_cars(1500, 1200, 4.0, 0.0, table, {"restitution": 0.4}))
+    first = lsc.solve(sc, method="exact")
+    built = []
+    monkeypatch.setattr(lsc.api, "HybridModel", lambda s: built.append(s) or HybridModel(s))
+    again, longer = lsc.solve(sc, method="exact"), lsc.solve(sc, method="exact", t_end=1.0)
+    assert built == []
+    for name in lsc.result.METRICS:
+        assert np.array_equal(getattr(again, name), getattr(first, name), equal_nan=True), name
+    assert np.array_equal(again.v, first.v) and longer.t[-1] == 1.0
+    member = sc.with_values({"vehicles.0.speed": 3.0})
+    slower = lsc.solve(member, method="exact")
+    assert built == [member]
+    # ΔV = (1 + e) m1 v0 / (m1 + m2) at a fixed restitution: 3/4 of the first
+    assert slower.delta_v[1] == pytest.approx(0.75 * first.delta_v[1], rel=1e-12)

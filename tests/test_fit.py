@@ -10,6 +10,7 @@ from lsc.analysis import calibrate_force_scale, read_channels
 from lsc.analysis.channels import write_csv, write_isomme
 from lsc.analysis.filters import cfc_filter
 from lsc.analysis.fit import fit, sampled_channels, scene_toml
+from helpers import HARD, have_diffrax
 
 K, E = 24000.0, 0.4                        # lbf/ft, -
 STIFFNESS, RESTITUTION = "contacts.0.loading.stiffness", "contacts.0.unloading.restitution"
@@ -161,3 +162,133 @@ def test_a_failing_simulation_names_the_parameters(measured):
     short = scene().with_values({"contacts.0.loading": {"table": [[0.0, 0.0], [0.1, 2400.0]]}})
     with pytest.raises(lsc.SimulationError, match=r"contacts.0.loading.scale = 1\b"):
         fit(short, measured, ["contacts.0.loading.scale"])
+
+
+# ---------------------------------------------------------------------- the Jacobian by autodiff
+needs_diffrax = pytest.mark.skipif(not have_diffrax(), reason="diffrax (the [jax] extra) is not installed")
+
+
+@needs_diffrax
+def test_autodiff_jacobian_of_the_sampled_channels_matches_central_differences():
+    """d(sampled channel)/d(parameter) by autodiff through the diffrax solve against central
+    differences of the same sampled channels. A 0.05 ft gap puts first contact at 5 ms, so the
+    samples (time from first contact) move with the speed through the contact's event time; the
+    maximum deformation and separation move with all three. Central differences of relative step
+    1e-4 are good to ~1e-8 of a column's scale where the channel is smooth (truncation, h²); the
+    solve's own noise (its steps move with the parameters: ~1e-9 of a channel's scale) over the
+    step makes ~1e-5, the measured largest difference 2e-5; the samples at 10 kHz lie much further
+    from the events than the events move over the step (~1e-5 x 0.1 s), so no sample straddles a
+    kink. Tolerance: 1e-4 of each column's largest value (an event time's derivative left out, or
+    halved, as a clipped sample time did, is off by O(1))."""
+    base = scene().with_values({"contacts.0.gap": 0.05})
+    values, jac, info = _central_differences_agree(base, [STIFFNESS, RESTITUTION, "vehicles.0.speed"],
+                                                   np.array([K, E, 10.0]), 1e-4)
+    assert info["first_contact"] == pytest.approx(0.05 / 10.0, rel=1e-9)
+    truth = lsc.solve(base, "diffrax", n_samples=40000)
+    tau = T[T >= 0]
+    assert np.allclose(values[0], np.interp(tau, truth.t - info["first_contact"], truth.a[:, 0],
+                                            right=0.0),
+                       rtol=0, atol=1e-6 * np.max(np.abs(truth.a[:, 0])))
+    # the accelerations of a linear loading scale with the closing speed: v ∂a/∂v = a
+    assert np.allclose(10.0 * jac[:2, :, 2], values[:2], rtol=0, atol=1e-8 * np.max(np.abs(values)))
+
+
+def _central_differences_agree(base, paths, x0, tol):
+    """The autodiff derivatives of both accelerations and the force on 200 ms at 10 kHz against
+    central differences (relative step 1e-4) of the same channels, to ``tol`` of each column's
+    largest value."""
+    from lsc.model import HybridModel
+    from lsc.parameters import tangent
+    from lsc.solvers.diffrax_ode.series import sampled_jacobian
+
+    tau = T[T >= 0]
+
+    def channels(x):
+        model = HybridModel(base.with_values(dict(zip(paths, x))))
+        tangents = [tangent(model, p, v) for p, v in zip(paths, x)]
+        return sampled_jacobian(model, tangents, tau, accel=(0, 1), force=(0,))
+
+    values, jac, info = channels(x0)
+    for j in range(len(paths)):
+        h = 1e-4 * x0[j]
+        up, down = x0.copy(), x0.copy()
+        up[j] += h
+        down[j] -= h
+        central = (channels(up)[0] - channels(down)[0]) / (2 * h)
+        assert np.max(np.abs(central)) > 0
+        for row in range(3):
+            scale = np.max(np.abs(central[row]))
+            if scale == 0:   # a channel this parameter does not reach within the window
+                scale = 1e-8 * np.max(np.abs(values[row])) / x0[j]
+            assert np.max(np.abs(jac[row, :, j] - central[row])) < tol * scale, (paths[j], row)
+    return values, jac, info
+
+
+@needs_diffrax
+@pytest.mark.skipif(not HARD, reason="hard-case mode (--hard): one more compile")
+def test_autodiff_jacobian_through_table_breakpoints_matches_central_differences():
+    """A loading table (two breakpoints on the way up), a gap, and a table scale, a restitution,
+    a speed and a weight: the tangents go through every event's transition (each breakpoint's
+    next segment, D_max, separation). Tolerance as above (measured: 4e-5)."""
+    base = lsc.Scene.load({
+        "units": "US", "g": "32.2 ft/s^2",
+        "vehicles": [{"name": "a", "weight": 3500, "speed": 10}, {"name": "b", "weight": 3000, "speed": 0}],
+        "contacts": [{"loading": {"table": [[0, 0], [0.2, 3000], [0.4, 9000], [0.8, 20000]]},
+                      "unloading": {"restitution": 0.4}, "gap": 0.02}]})
+    paths = ["contacts.0.loading.scale", RESTITUTION, "vehicles.0.speed", "vehicles.1.weight"]
+    _central_differences_agree(base, paths, np.array([1.0, 0.4, 10.0, 3000.0]), 1e-4)
+
+
+_CARS = [{"name": "a", "weight": 3500, "speed": 10}, {"name": "b", "weight": 3000, "speed": 0}]
+_IFD = {"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}}
+_OTHER_MODELS = {   # scene, paths, values (measured largest difference: 3e-8, 1.3e-5, 2.1e-5)
+    "hunt-crossley (work integral, nonlinear events)": (
+        [{"law": "hunt-crossley", "stiffness": 30000, "restitution": 0.5}], _CARS,
+        ["vehicles.0.speed", "vehicles.1.weight"], [10.0, 3000.0]),
+    "three-car chain, second contact with a gap": (
+        [_IFD, {"loading": {"stiffness": 20000}, "unloading": {"restitution": 0.3}, "gap": 0.1}],
+        _CARS + [{"name": "c", "weight": 2500, "speed": 0}],
+        [STIFFNESS, "contacts.1.unloading.restitution", "vehicles.0.speed"], [K, 0.3, 10.0]),
+    "braked target": ([_IFD], [_CARS[0], dict(_CARS[1], brake={"mu": 0.7})],
+                      [STIFFNESS, "vehicles.0.speed"], [K, 10.0]),
+}
+
+
+@needs_diffrax
+@pytest.mark.skipif(not HARD, reason="hard-case mode (--hard): one more compile each")
+@pytest.mark.parametrize("name", list(_OTHER_MODELS))
+def test_autodiff_jacobian_of_other_models_matches_central_differences(name):
+    contacts, vehicles, paths, x0 = _OTHER_MODELS[name]
+    base = lsc.Scene.load({"units": "US", "g": "32.2 ft/s^2", "vehicles": vehicles,
+                           "contacts": contacts})
+    _central_differences_agree(base, paths, np.array(x0), 1e-4)
+
+
+@needs_diffrax
+def test_fit_on_diffrax_takes_its_jacobian_by_autodiff_and_recovers_k_and_e(measured):
+    f = fit(wrong_start(), measured, PARAMS, method="diffrax")
+    assert f.jacobian.startswith("forward-mode autodiff through the diffrax solve")
+    assert f.values[STIFFNESS] == pytest.approx(K, rel=1e-6)
+    assert f.values[RESTITUTION] == pytest.approx(E, rel=1e-6)
+    assert f.njev > 0 and f.nfev < 30        # one solve per point, no finite-difference solves
+    assert all(r.total > 0.999 for r in f.iso18571.values())
+    assert f.result.scene is f.scene and f.method.startswith("diffrax")
+    # the same fit by finite differences of the diffrax solve finds the same values
+    fd = fit(wrong_start(), measured, PARAMS, method="diffrax", jac="2-point")
+    assert fd.jacobian.startswith("finite differences (2-point)")
+    for p in PARAMS:
+        assert fd.values[p] == pytest.approx(f.values[p], rel=1e-7)
+
+
+def test_jacobian_choice_is_checked_and_said(measured):
+    with pytest.raises(lsc.SceneError, match="one of 'autodiff', '2-point', '3-point'"):
+        fit(scene(), measured, PARAMS, jac="cs")
+    with pytest.raises(lsc.SceneError, match=r"jac='autodiff' does not apply: autodiff needs "
+                                             r"method='diffrax' \(this fit: closed-form\)"):
+        fit(scene(), measured, PARAMS, jac="autodiff")
+    if have_diffrax():   # refused before anything is solved
+        with pytest.raises(lsc.SceneError, match="the Kvaerno5 integrator is implicit"):
+            fit(scene(), measured, PARAMS, method="diffrax", integrator="Kvaerno5", jac="autodiff")
+    f = fit(wrong_start(), measured, PARAMS)
+    assert f.jacobian == ("finite differences (2-point) of lsc.solve; autodiff needs "
+                          "method='diffrax' (this fit: closed-form)")

@@ -1,10 +1,13 @@
 """lsc.sweep: per-member results equal single solves; failures are reported per member."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
 import lsc
-from helpers import NONLINEAR, PAPER, two_cars
+from helpers import NONLINEAR, PAPER, subprocess_env, two_cars
 
 
 def _members(n, seed=1):
@@ -341,3 +344,19 @@ def test_unknown_keyword_and_bad_sweep_settings_are_refused():
         with pytest.raises(lsc.SceneError) as e:
             lsc.sweep(PAPER, {SPEED: [4.0]}, **kw)
         assert str(e.value) == message
+
+
+def test_exact_sweep_without_a_bar_imports_no_integrator_and_no_tqdm():
+    """A fresh process's exact sweep with ``progress=False`` loads only what its path needs: not
+    SciPy's integrators (other backends' declarations) nor tqdm (the bar it does not show);
+    together they tripled the first sweep's wall time."""
+    code = ("import sys, numpy as np, lsc; "
+            "scene = {'vehicles': [{'mass': 1000, 'speed': 3}, {'mass': 1200, 'speed': 0}], "
+            "'contacts': [{'loading': {'stiffness': 1e5}, 'unloading': {'restitution': 0.5}}]}; "
+            "s = lsc.sweep(scene, {'vehicles.0.speed': np.linspace(1, 5, 10)}, method='exact', "
+            "progress=False); "
+            "assert s.method == 'exact' and s.ok.all(); "
+            "print(' '.join(m for m in ('scipy.integrate', 'tqdm') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env=subprocess_env())
+    assert out.stdout.strip() == ""

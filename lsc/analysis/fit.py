@@ -15,11 +15,13 @@ to the end of the window). Each channel's residual (simulated - measured, scene 
 by the channel's peak ``|measured|`` (or multiplied by ``weights[role]``), so channels of
 different units can be fitted together.
 
-The Jacobian is taken by finite differences of :func:`lsc.solve` (forward, ``jac="2-point"``, or
-central, ``"3-point"``) on the parameters relative to their starting values, so the step is
-relative (``diff_step``, default ``√ε`` resp. ``ε^(1/3)`` of the starting value). This holds for any
-backend: :func:`lsc.analysis.sensitivity` differentiates through the diffrax solve, but only its
-summary metrics (ΔV, peak acceleration, duration), not the sampled time series a fit needs.
+The Jacobian: with ``method="diffrax"`` by forward-mode autodiff through the diffrax solve of the
+sampled channels (:mod:`._fit_jacobian`, :func:`lsc.solvers.diffrax_ode.series.sampled_jacobian`:
+the steps the solve took differentiated, event times moving with the parameters), one solve per
+point for the residuals and the Jacobian together; otherwise (or with ``jac="2-point"`` /
+``"3-point"``) by finite differences of :func:`lsc.solve` (forward or central) on the parameters
+relative to their starting values, so the step is relative (``diff_step``, default ``√ε`` resp.
+``ε^(1/3)`` of the starting value). ``FitResult.jacobian`` says which.
 
 Standard errors come from the Jacobian ``J`` at the solution (weighted residuals against the
 parameters). ``errors="independent"`` gives the ordinary least-squares ones, ``σ² = SSR/(n - p)``,
@@ -41,13 +43,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..api import solve
 from ..errors import SceneError, SimulationError
 from ..outputs import write_file
 from ..scene import Scene
 from ..toml_text import to_toml
 from ._common import path_kind, read_path
 from ._fit_errors import covariance
+from ._fit_jacobian import choose
+from ._fit_problem import _Problem
 from .compare import _first_contact, _rate
 
 __all__ = ["fit", "FitResult", "scene_toml", "sampled_channels", "ERRORS"]
@@ -55,8 +58,6 @@ __all__ = ["fit", "FitResult", "scene_toml", "sampled_channels", "ERRORS"]
 #: Accepted ``errors`` values of :func:`fit`.
 ERRORS = ("autocorrelated", "independent")
 
-#: Fitted channel roles: prefix → the result series and kind it is compared with.
-_ROLES = {"accel_": "acceleration", "force": "force"}
 #: Value of a path the scene may leave out (the loader's default).
 _DEFAULTS = {"scale": 1.0}
 
@@ -74,7 +75,9 @@ class FitResult:
     the fitted simulation against the test; ``ssr`` (weighted sum of squared residuals), ``dof``
     (samples - parameters), ``sigma`` (``√(ssr/dof)``), ``nfev``, ``message``, ``method``;
     ``errors``: how the standard errors were computed (see :func:`fit`), ``correlation_time``:
-    role → the Newey–West bandwidth [s] used for that channel.
+    role → the Newey–West bandwidth [s] used for that channel; ``njev``: Jacobian evaluations,
+    ``jacobian``: how the Jacobian was taken (autodiff through the diffrax solve, or finite
+    differences and why).
     """
 
     params: tuple
@@ -102,11 +105,14 @@ class FitResult:
     mapping: dict | None = None
     errors: str = "autocorrelated"
     correlation_time: dict = field(default_factory=dict)
+    njev: int = 0
+    jacobian: str = ""
 
     def summary(self) -> str:
         """The fitted values with standard errors, the correlations and the ratings, as text."""
         lines = [f"fit of {len(self.params)} parameter(s) to {', '.join(self.measured)} "
-                 f"({self.dof + len(self.params)} samples, {self.nfev} simulations, {self.method}):"]
+                 f"({self.dof + len(self.params)} samples, {self.nfev} simulations, {self.njev} "
+                 f"Jacobians, {self.method}):", f"  Jacobian: {self.jacobian}"]
         for p in self.params:
             u = self.units.get(p, "")
             lines.append(f"  {p} = {self.values[p]:.8g} ± {self.standard_errors[p]:.3g} {u}".rstrip()
@@ -126,7 +132,8 @@ class FitResult:
         return {"params": list(self.params), "values": dict(self.values), "initial": dict(self.initial),
                 "standard_errors": dict(self.standard_errors), "units": dict(self.units),
                 "correlation": self.correlation.tolist(), "ssr": self.ssr, "dof": self.dof,
-                "sigma": self.sigma, "nfev": self.nfev, "method": self.method,
+                "sigma": self.sigma, "nfev": self.nfev, "njev": self.njev, "method": self.method,
+                "jacobian": self.jacobian,
                 "weights": dict(self.weights),
                 "iso18571": {k: r.as_dict() for k, r in self.iso18571.items()}}
 
@@ -151,7 +158,7 @@ class FitResult:
 
 def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | None = None,
         mapping: dict | None = None, roles=None, weights: dict | None = None, window=None,
-        method: str | None = None, jac: str = "2-point", diff_step=None, ftol: float = 1e-10,
+        method: str | None = None, jac: str | None = None, diff_step=None, ftol: float = 1e-10,
         xtol: float = 1e-10, gtol: float = 1e-10, max_nfev: int | None = None,
         n_samples: int | None = None, errors: str = "autocorrelated", **options) -> FitResult:
     """Fit scene parameters to measured channels by least squares.
@@ -181,7 +188,12 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
         Fitted interval [s] of the record (default: time zero to the end of the record).
     method : str, optional
         Backend of :func:`lsc.solve` (default: the scene's, ``auto``).
-    jac, diff_step, ftol, xtol, gtol, max_nfev
+    jac : ``"autodiff"``, ``"2-point"`` or ``"3-point"``, optional
+        How the Jacobian is taken: by default forward-mode autodiff through the diffrax solve
+        where ``method="diffrax"`` (explicit integrator, every path a number of the model),
+        else forward finite differences; ``"2-point"`` / ``"3-point"`` force finite differences
+        (``FitResult.jacobian`` says which was used).
+    diff_step, ftol, xtol, gtol, max_nfev
         As for :func:`scipy.optimize.least_squares` (the step is relative to the starting values).
     n_samples : int, optional
         Samples of each simulation (default: ten per measured sample in the window).
@@ -196,9 +208,11 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     ------
     lsc.SceneError
         A path that is no numeric field, a start outside its bounds, no fitted channel, fewer
-        samples than parameters, or parameters that the channels cannot tell apart.
+        samples than parameters, parameters that the channels cannot tell apart, an unknown
+        ``jac``, or ``jac="autodiff"`` where it does not apply.
     lsc.SimulationError
-        A simulation on the way fails (the message names the parameter values).
+        A simulation on the way fails (the message names the parameter values), or the
+        autodiff derivatives are not finite (an event that grazes its surface).
     """
     from scipy.optimize import least_squares
 
@@ -209,15 +223,40 @@ def fit(scene, channels, params, *, initial: dict | None = None, bounds: dict | 
     start = _starting_values(base, params, initial or {})
     lower, upper = _bounds(params, start, bounds or {})
     ref = np.where(start != 0, np.abs(start), 1.0)
+    autodiff, how = choose(base, params, start, method, jac, options)
     problem = _Problem(base, channels, params, ref, mapping, roles, weights, window, method,
-                       n_samples, errors, options)
-    sol = least_squares(problem.weighted, start / ref, jac=jac, bounds=(lower / ref, upper / ref),
-                        method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
+                       n_samples, errors, options, autodiff, how)
+    sol = least_squares(problem.weighted, start / ref,
+                        jac=problem.jacobian if autodiff else jac or "2-point",
+                        bounds=(lower / ref, upper / ref), method="trf", diff_step=diff_step, ftol=ftol, xtol=xtol, gtol=gtol,
                         max_nfev=max_nfev, x_scale=1.0)
     if sol.status <= 0:
         raise SimulationError(f"the fit did not converge: {sol.message} (raise max_nfev, or start "
                               f"closer to the solution)")
-    return problem.result(sol, start)
+    return _result(problem, sol, start)
+
+
+def _result(problem, sol, start: np.ndarray) -> FitResult:
+    """The :class:`FitResult` of ``problem`` at the solution ``sol`` of least_squares."""
+    p = sol.x * problem.ref
+    sc, res, sim = problem.final(sol.x)
+    params, roles, t = problem.params, problem.roles, problem.t
+    J = sol.jac / problem.ref                              # d(weighted residual)/d(parameter)
+    resid = {k: sim[k] - problem.measured[k] for k in roles}
+    r = np.concatenate([resid[k] * problem.weights[k] for k in roles])
+    ssr = float(r @ r)
+    dof = r.size - len(params)
+    cov, corr, lags = covariance(J, r, [t.size] * len(roles), problem.errors, params)
+    se = np.sqrt(np.diag(cov))
+    ratings = {k: _rate(t, problem.measured[k], sim[k]) for k in roles}
+    units = {q: _unit(sc, q) for q in params}
+    return FitResult(params, dict(zip(params, p.tolist())), dict(zip(params, start.tolist())),
+                     dict(zip(params, se.tolist())), cov, corr, sc, res, t,
+                     problem.measured, sim, resid, dict(problem.weights), ratings, ssr, dof,
+                     math.sqrt(ssr / dof), problem.nfev, str(sol.message), str(res.method),
+                     units, problem.channels, problem.mapping, problem.errors,
+                     dict(zip(roles, (lag * float(t[1] - t[0]) for lag in lags))),
+                     int(sol.njev or 0), problem.how)
 
 
 def _checked_params(params) -> tuple:
@@ -272,132 +311,6 @@ def _default_bounds(path: str) -> tuple[float, float]:
     if last in ("stiffness", "mass", "weight", "scale"):
         return 0.0, math.inf
     return -math.inf, math.inf
-
-
-class _Problem:
-    """The weighted residuals of a scene's simulation against its channels, as a function of the
-    parameters relative to their reference values."""
-
-    def __init__(self, base, channels, params, ref, mapping, roles, weights, window, method,
-                 n_samples, errors, options):
-        self.base, self.channels, self.params, self.ref = base, channels, params, ref
-        self.mapping, self.method, self.errors = mapping, method, errors
-        self.roles = _fitted_roles(base, channels, mapping, roles)
-        self.t, self.inside = _samples(channels, window)
-        if self.t.size * len(self.roles) <= len(params):
-            raise SceneError("params", f"{len(params)} parameters need more than "
-                                       f"{self.t.size * len(self.roles)} fitted samples")
-        self.measured = {r: ch.to(base.units)[self.inside] for r, ch in self.roles.items()}
-        self.weights = _weights(self.measured, weights or {})
-        self.options = {"n_samples": n_samples or 10 * self.t.size, **options}
-        self.nfev = 0
-
-    def scene(self, p: np.ndarray) -> Scene:
-        return self.base.with_values({k: float(v) for k, v in zip(self.params, p)})
-
-    def simulate(self, p: np.ndarray):
-        """The scene at parameters ``p`` (scene units), its result and its channels on ``t``."""
-        self.nfev += 1
-        try:
-            sc = self.scene(p)
-            res = solve(sc, self.method, **self.options)
-        except (SceneError, SimulationError) as err:
-            at = ", ".join(f"{k} = {v:.10g}" for k, v in zip(self.params, p))
-            raise type(err)(*_with_context(err, at)) from err
-        return sc, res, _simulated(res, self.t, self.roles)
-
-    def weighted(self, x: np.ndarray) -> np.ndarray:
-        _, _, sim = self.simulate(x * self.ref)
-        return np.concatenate([(sim[r] - self.measured[r]) * self.weights[r] for r in self.roles])
-
-    def result(self, sol, start: np.ndarray) -> FitResult:
-        p = sol.x * self.ref
-        sc, res, sim = self.simulate(p)
-        J = sol.jac / self.ref                              # d(weighted residual)/d(parameter)
-        r = np.concatenate([(sim[k] - self.measured[k]) * self.weights[k] for k in self.roles])
-        ssr = float(r @ r)
-        dof = r.size - len(self.params)
-        cov, corr, lags = covariance(J, r, [self.t.size] * len(self.roles), self.errors, self.params)
-        se = np.sqrt(np.diag(cov))
-        ratings = {k: _rate(self.t, self.measured[k], sim[k]) for k in self.roles}
-        units = {q: _unit(sc, q) for q in self.params}
-        return FitResult(self.params, dict(zip(self.params, p.tolist())), dict(zip(self.params, start.tolist())),
-                         dict(zip(self.params, se.tolist())), cov, corr, sc, res, self.t,
-                         self.measured, sim, {k: sim[k] - self.measured[k] for k in self.roles},
-                         dict(self.weights), ratings, ssr, dof, math.sqrt(ssr / dof), self.nfev,
-                         str(sol.message), str(res.method),
-                         units, self.channels, self.mapping, self.errors,
-                         dict(zip(self.roles, (lag * float(self.t[1] - self.t[0]) for lag in lags))))
-
-
-def _with_context(err, at: str) -> tuple:
-    if isinstance(err, SceneError):
-        return err.path, f"{err.message} (at {at})"
-    return (f"{err} (at {at}; start the fit closer to the solution or bound the parameters)",)
-
-
-def _fitted_roles(scene, channels, mapping, roles) -> dict:
-    found = channels.match(scene, mapping)
-    fittable = {r: ch for r, ch in found.items() if any(r.startswith(p) for p in _ROLES)}
-    if roles is None:
-        chosen = fittable
-    else:
-        missing = [r for r in roles if r not in fittable]
-        if missing:
-            raise SceneError("roles", f"no acceleration or force channel for {missing}; the channels "
-                                      f"match: {', '.join(fittable) or '(none)'}")
-        chosen = {r: fittable[r] for r in roles}
-    if not chosen:
-        wanted = ", ".join(f"accel_{v.name}" for v in scene.vehicles)
-        raise SceneError(channels.source, f"no channel to fit: name them {wanted} or force (or pass "
-                                          f"mapping={{role: channel}}); the channels are: "
-                                          f"{', '.join(channels.names)}")
-    return chosen
-
-
-def _samples(channels, window):
-    t = channels.t
-    t0, t1 = (max(0.0, float(t[0])), float(t[-1])) if window is None else (float(w) for w in window)
-    if not (float(t[0]) - 1e-12 <= t0 < t1 <= float(t[-1]) + 1e-12):
-        raise SceneError("window", f"the window ({t0:g}, {t1:g}) s must lie inside the record "
-                                   f"({float(t[0]):g}, {float(t[-1]):g}) s")
-    inside = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
-    return t[inside], inside
-
-
-def _weights(measured: dict, given: dict) -> dict:
-    unknown = set(given) - set(measured)
-    if unknown:
-        raise SceneError("weights", f"{sorted(unknown)} are not fitted roles: {list(measured)}")
-    out = {}
-    for role, values in measured.items():
-        peak = float(np.max(np.abs(values)))
-        w = float(given[role]) if role in given else (1.0 / peak if peak > 0 else 0.0)
-        if not (w > 0 and math.isfinite(w)):
-            raise SceneError(f"weights.{role}", f"a positive finite factor (the measured channel is "
-                                                f"zero: give its weight), got {w!r}")
-        out[role] = w
-    return out
-
-
-def _simulated(res, t: np.ndarray, roles: dict) -> dict:
-    """The result's acceleration and force on ``t`` (time from first contact); zero after the end
-    for a scene without braking."""
-    t_sim = res.t - _first_contact(res)
-    names = [v.name for v in res.scene.vehicles]
-    braked = any(v.brake is not None for v in res.scene.vehicles)
-    if braked and t[-1] > t_sim[-1] + 1e-12:
-        raise SimulationError(f"the scene has braking and its simulation ends at {t_sim[-1]:.6g} s, "
-                              f"before the fitted window ({t[-1]:.6g} s): pass a shorter window or a "
-                              f"later t_end")
-    out = {}
-    for role in roles:
-        if role.startswith("accel_"):
-            series = res.a[:, names.index(role[len("accel_"):])]
-        else:
-            series = res.force[:, 0 if role == "force" else int(role.split("_")[1]) - 1]
-        out[role] = np.interp(t, t_sim, series, left=0.0, right=0.0)
-    return out
 
 
 def sampled_channels(result, t, *, source: str = "simulation"):

@@ -20,12 +20,13 @@ from ._common import select as _sel
 
 def _lazy(cond, a, b, xp) -> dict:
     """``select(cond, a(), b(), xp)`` for branches given as functions: with a condition known
-    now (a Python or NumPy boolean scalar: one scene's transition on Python floats or 0-d
-    arrays) only the branch taken is evaluated, the same values as evaluating both and picking
-    one (a transition is pure); with an array condition, or on ``jax.numpy`` (whose branches
-    must agree in shape and type), both, then ``select``."""
-    if (cond is True or cond is False or isinstance(cond, (np.bool_, np.ndarray))
-            and np.ndim(cond) == 0) and not getattr(xp, "__name__", "").startswith("jax"):
+    now (a Python boolean, on any ``xp``: the event a compiled transition is for; or a NumPy
+    boolean scalar, one scene's transition on Python floats or 0-d arrays) only the branch taken
+    is evaluated, the same values as evaluating both and picking one (a transition is pure);
+    with an array condition, or a NumPy scalar on ``jax.numpy`` (whose branches must agree in
+    shape and type), both, then ``select``."""
+    if cond is True or cond is False or (isinstance(cond, (np.bool_, np.ndarray))
+            and np.ndim(cond) == 0 and not getattr(xp, "__name__", "").startswith("jax")):
         return dict(a() if cond else b())
     return _sel(cond, a(), b(), xp)
 
@@ -66,6 +67,41 @@ class Hysteresis:
     unloading: Restitution | UnloadingStiffness | UnloadingTable
     scale: float = 1.0
     name = "hysteresis"
+
+
+def _numbers(c: Curve, u) -> tuple:
+    """The law's numbers (:attr:`HysteresisLaw.params` but ``dfail``, as read-only arrays), the
+    number of loading pieces, the unloading kind and the unloading template's number of points,
+    for loading curve ``c`` and unloading rule ``u``."""
+    ld, lf, ls, le = c.pieces()
+    pad = 1
+    params = {
+        "ld": np.append(ld, [BIG] * pad),
+        "lf": np.append(lf, [lf[-1]] * pad),
+        "ls": np.append(np.nan_to_num(ls, nan=0.0), [0.0] * pad),
+        "le": np.append(le, [le[-1]] * pad),
+    }
+    if isinstance(u, Restitution):
+        kind = "restitution"
+        params["e"] = np.asarray(float(u.e))
+        ud, uf = np.array([-1.0, 0.0]), np.array([0.0, 1.0])
+    elif isinstance(u, UnloadingStiffness):
+        kind = "stiffness"
+        params["su"] = np.asarray(float(u.stiffness))
+        ud, uf = np.array([-1.0, 0.0]), np.array([0.0, 1.0])
+    elif isinstance(u, UnloadingTable):
+        kind = "table"
+        ud, uf = np.asarray(u.d, float)[::-1].copy(), np.asarray(u.f, float)[::-1].copy()
+    else:  # pragma: no cover - the loader only builds the three kinds
+        raise TypeError(f"unknown unloading rule {u!r}")
+    params["ud"] = ud - ud[-1]  # top of the template at 0
+    params["uf"] = uf
+    # Energy under the template (force 0 → 1 or F0), for the returned energy.
+    params["ue"] = np.asarray(float(np.sum(0.5 * (uf[1:] + uf[:-1]) * np.diff(ud))))
+    params["wres"] = np.asarray(REBOUND_RESOLUTION)
+    for value in params.values():
+        value.setflags(write=False)
+    return params, ld.size, kind, ud.size
 
 
 class HysteresisLaw:
@@ -120,43 +156,22 @@ class HysteresisLaw:
         self.spec = spec
         c = spec.loading
         self.fails = failure is not None and failure.post_failure is not None
+        dfail = None
         if self.fails:
             c, dfail = c.splice(failure.force, failure.post_failure)
         self.loading = c  # the curve the law follows (spliced at the failure point, if any)
-        ld, lf, ls, le = c.pieces()
-        n = ld.size
-        self.n_load = n
         self.extends = c.extends
-        pad = 1
-        slopes = np.nan_to_num(ls, nan=0.0)
-        self.params = {
-            "ld": np.append(ld, [BIG] * pad),
-            "lf": np.append(lf, [lf[-1]] * pad),
-            "ls": np.append(slopes, [0.0] * pad),
-            "le": np.append(le, [le[-1]] * pad),
-        }
+        # the numbers of an unspliced law depend on its (frozen) description alone: built once
+        # per description, read-only, and shared by every model of it
+        numbers = None if self.fails else spec.__dict__.get("_law_numbers")
+        if numbers is None:
+            numbers = _numbers(c, spec.unloading)
+            if not self.fails:
+                object.__setattr__(spec, "_law_numbers", numbers)
+        params, self.n_load, self.unload_kind, self.n_unload = numbers
+        self.params = dict(params)
         if self.fails:
             self.params["dfail"] = np.asarray(dfail)
-        u = spec.unloading
-        if isinstance(u, Restitution):
-            self.unload_kind = "restitution"
-            self.params["e"] = np.asarray(float(u.e))
-            ud, uf = np.array([-1.0, 0.0]), np.array([0.0, 1.0])
-        elif isinstance(u, UnloadingStiffness):
-            self.unload_kind = "stiffness"
-            self.params["su"] = np.asarray(float(u.stiffness))
-            ud, uf = np.array([-1.0, 0.0]), np.array([0.0, 1.0])
-        elif isinstance(u, UnloadingTable):
-            self.unload_kind = "table"
-            ud, uf = np.asarray(u.d, float)[::-1].copy(), np.asarray(u.f, float)[::-1].copy()
-        else:  # pragma: no cover - the loader only builds the three kinds
-            raise TypeError(f"unknown unloading rule {u!r}")
-        self.n_unload = ud.size
-        self.params["ud"] = ud - ud[-1]  # top of the template at 0
-        self.params["uf"] = uf
-        # Energy under the template (force 0 → 1 or F0), for the returned energy.
-        self.params["ue"] = np.asarray(float(np.sum(0.5 * (uf[1:] + uf[:-1]) * np.diff(ud))))
-        self.params["wres"] = np.asarray(REBOUND_RESOLUTION)
 
     # ------------------------------------------------------------------ declaration
     @classmethod

@@ -41,6 +41,7 @@ from ..locking import locking_model
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
+from .integrable import FEATURES as INTEGRABLE
 from .segments import Step, build_result, run_segments
 
 __all__ = ["BACKEND", "FEATURES", "solve", "INTEGRATORS"]
@@ -321,11 +322,8 @@ def _polish(restep, g, slope, t_old, t_new, tr, yr, iters: int = 3):
 
 
 #: Every built-in feature of the model, and those of registered laws and effects that declare
-#: ``integrable``: SciPy integrates any scene of the hybrid ODE.
-FEATURES = integrable_features({
-    "law:ifd", "loading:linear", "loading:table", "unloading:restitution",
-    "unloading:stiffness", "unloading:table", "law:kelvin", "law:hunt-crossley", "law:brach",
-    "effect:brake", "effect:failure", "effect:post-failure", "gap:open"})
+#: ``integrable``: SciPy integrates any scene of the hybrid ODE (:mod:`.integrable`).
+FEATURES = INTEGRABLE
 
 #: The SciPy backend's declaration: any number of vehicles, every law and effect.
 BACKEND = Backend(

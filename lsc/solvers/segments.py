@@ -73,7 +73,7 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         step = advance(t, y, disc, horizon)
         totals["steps"] += step.steps
         totals["nfev"] += step.nfev
-        if not np.all(np.isfinite(step.y)):
+        if not np.isfinite(step.y).all():
             raise SimulationError(f"the solution became non-finite near t = {step.t:.6g} s")
         segments.append(Segment(t, step.t, disc, step.dense))
         t, y = step.t, np.asarray(step.y, float)
@@ -239,6 +239,8 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
     (For the IF-D law of two vehicles the force is affine in a deformation that is monotone
     inside every segment of a first impact, so its peaks are at events, which the event rows
     hold exactly.)"""
+    if not segments:
+        return []
     K, N = model.K, model.N
     golden = 0.5 * (np.sqrt(5.0) - 1.0)
     pp = _columns(model.params)

@@ -10,7 +10,7 @@ are loaded on first use (PEP 562).
 from __future__ import annotations
 
 from ..base import Backend
-from ..scipy_ode import FEATURES
+from ..integrable import FEATURES
 
 __all__ = ["BACKEND", "solve", "solve_batch", "solve_params", "metrics_jacobian", "INTEGRATORS",
            "BATCH_METRICS", "STATUS_CODES", "TRACES"]

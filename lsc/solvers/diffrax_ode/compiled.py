@@ -14,6 +14,7 @@ argument, so a scene whose structure was compiled before runs without retracing.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -84,22 +85,47 @@ def to_numpy(tree):
 
 class Compiled:
     """A jitted function and its ahead-of-time compiled executables, keyed by argument shapes
-    (so that compile time is measured apart from run time)."""
+    (so that compile time is measured apart from run time). :meth:`warm` compiles for given
+    shapes in a background thread ahead of the first call (which then waits for it).
+    ``options``: XLA compiler options (then the compiled executable itself is called)."""
 
-    def __init__(self, fn):
+    def __init__(self, fn, options: dict | None = None):
         self.fn = jax.jit(fn)
+        self.options = options
         self.exe = {}
+        self.pending = {}
+
+    def _compile(self, args):
+        return self.fn.lower(*args).compile(self.options)
+
+    @staticmethod
+    def _key(args):
+        leaves, tree = jax.tree_util.tree_flatten(args)
+        return (tree, tuple((np.shape(a), np.asarray(a).dtype.str) for a in leaves))
+
+    def warm(self, *args) -> None:
+        """Compile for the shapes and dtypes of ``args`` (their values are not used) in a
+        background thread (:data:`WARMING`), unless compiled or under way already."""
+        key = self._key(args)
+        if key not in self.exe and key not in self.pending:
+            self.pending[key] = WARMING.submit(self._compile, args)
 
     def __call__(self, *args):
-        leaves, tree = jax.tree_util.tree_flatten(args)
-        key = (tree, tuple((np.shape(a), np.asarray(a).dtype.str) for a in leaves))
+        key = self._key(args)
         compile_time = 0.0
         if key not in self.exe:
             t0 = time.perf_counter()
-            self.exe[key] = self.fn.lower(*args).compile()
+            job = self.pending.pop(key, None)
+            # (a warm-up under way: its wait is this call's compile time)
+            self.exe[key] = job.result() if job is not None else self._compile(args)
             compile_time = time.perf_counter() - t0
         # run through the jitted function: its C++ dispatch is several times cheaper than an
         # AOT executable's, and it finds the executable just compiled (no retrace, no compile)
         t0 = time.perf_counter()
-        out = jax.block_until_ready(self.fn(*args))
+        out = jax.block_until_ready(self.exe[key](*args) if self.options else self.fn(*args))
         return out, compile_time, time.perf_counter() - t0
+
+
+#: The threads :meth:`Compiled.warm` compiles in (XLA compiles one program on one core; two
+#: programs compile side by side on two).
+WARMING = ThreadPoolExecutor(max_workers=2, thread_name_prefix="lsc-compile")

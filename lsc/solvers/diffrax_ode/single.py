@@ -23,7 +23,7 @@ from ..segments import Segment, build_result  # noqa: E402
 from .core import RECORD_FULL, check_settings, segment_loop, status_message  # noqa: E402
 from .dips import BARY, THETA  # noqa: E402
 
-__all__ = ["solve", "RECORD_NODES"]
+__all__ = ["solve", "record", "record_args", "events_of", "RECORD_NODES"]
 
 #: Nodes of the dense record of a single solve at first (then ``4 x max_steps`` if it fills).
 RECORD_NODES = 512
@@ -87,21 +87,26 @@ class _Dense:
         return self.sampler.evaluate(self.s, tt)
 
 
-def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, t_end=None,
-          max_steps: int = 2048, max_events: int = 256, n_samples: int = 1000):
-    """Solve ``model`` with diffrax (``integrator``: Tsit5, Dopri5, Dopri8, Kvaerno5).
-
-    ``rtol`` and ``atol`` as in the SciPy backend (``atol`` default: ``rtol`` times the speed
-    scale, times the contact time scale [s] for positions and times the speed scale and the
-    smallest mass for work integrals); ``t_end`` [s]: simulate until then; ``max_steps``: most
-    steps in one segment; ``max_events``: most events in one solve.
-    """
-    check_settings(integrator, rtol, atol, max_steps, max_events)
+def record_args(model, rtol, atol, t_end) -> tuple:
+    """The arguments of the compiled single solve (:attr:`~.core.SegmentLoop.single`) of
+    ``model``: its parameters (float64), ``rtol``, ``atol``, ``t_end`` and its horizon (NaN for
+    those not given)."""
     p = jax.tree_util.tree_map(f64, model.params)
     horizon = float(model.horizon()) if hasattr(model, "horizon") else np.nan
-    args = (p, f64(rtol), f64(np.nan if atol is None else atol),
+    return (p, f64(rtol), f64(np.nan if atol is None else atol),
             f64(np.nan if t_end is None else t_end),
             f64(horizon if np.isfinite(horizon) else np.nan))
+
+
+def record(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, t_end=None,
+           max_steps: int = 2048, max_events: int = 256):
+    """The compiled segment loop of ``model`` in record mode (options as :func:`solve`):
+    ``(core, p, out, compile_time, wall_time)``, the :class:`~.core.SegmentLoop` that ran, the
+    parameters (float64) and its record as NumPy arrays (events, segments, step nodes, frames).
+    Raises :class:`~lsc.errors.SimulationError` where the solve fails."""
+    check_settings(integrator, rtol, atol, max_steps, max_events)
+    args = record_args(model, rtol, atol, t_end)
+    p = args[0]
     # a small dense record first (most solves take a few dozen steps; a record sized for
     # 4 x max_steps made the compiled solve ~25% slower); a solve that fills it runs again with
     # the full one
@@ -113,13 +118,23 @@ def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, 
         if capacity is None or int(out["status"]) != RECORD_FULL:
             break
     out = to_numpy(out)
-    status, t_stop, E, n = int(out["status"]), float(out["t"]), int(out["events"]), model.n_state
+    status = int(out["status"])
+    if status:
+        raise SimulationError(status_message(status, int(out["status_contact"]), float(out["t"]),
+                                             integrator))
+    return core, p, out, compile_time, wall
+
+
+def events_of(model, core, out):
+    """The discrete states and events of a record (:func:`record`): ``(discs, states, events,
+    y_post)``, the flat discrete state of each segment (initial, then after each event; the
+    record's fixed number of rows), the first ``events + 1`` of them as Python dicts, the
+    :class:`~lsc.result.Event` list (contacts closed at the start at 0) and the state at the last
+    separation (``None`` if none)."""
+    E, n = int(out["events"]), model.n_state
     rec = out["rec"]  # (max_events, ...): a fixed shape for the sampler
     discs = np.concatenate([out["disc0"][None], rec[:, 2 + n:]])
     states = [model.to_python(unflat(row, core.disc_like)) for row in discs[:E + 1]]
-    if status:
-        raise SimulationError(status_message(status, int(out["status_contact"]), t_stop,
-                                             integrator))
     events = [Event(0.0, "contact", k) for k, st in enumerate(states[0][: model.K]) if st["mode"]]
     y_post = None  # the state at the last separation (braked vehicles may slide on after it)
     for e in range(E):
@@ -128,6 +143,22 @@ def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, 
         events.append(Event(float(rec[e, 0]), name, model.event_index(i)))
         if "separation" in name:
             y_post = rec[e, 2:2 + n]
+    return discs, states, events, y_post
+
+
+def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, t_end=None,
+          max_steps: int = 2048, max_events: int = 256, n_samples: int = 1000):
+    """Solve ``model`` with diffrax (``integrator``: Tsit5, Dopri5, Dopri8, Kvaerno5).
+
+    ``rtol`` and ``atol`` as in the SciPy backend (``atol`` default: ``rtol`` times the speed
+    scale, times the contact time scale [s] for positions and times the speed scale and the
+    smallest mass for work integrals); ``t_end`` [s]: simulate until then; ``max_steps``: most
+    steps in one segment; ``max_events``: most events in one solve.
+    """
+    core, p, out, compile_time, wall = record(model, integrator=integrator, rtol=rtol, atol=atol,
+                                              t_end=t_end, max_steps=max_steps,
+                                              max_events=max_events)
+    discs, states, events, y_post = events_of(model, core, out)
     nseg = int(out["segments"])
     sampler = _Sampler(core, p, out, discs, nseg)
     segments = [Segment(float(sampler.node_t[sampler.n0[s]]), float(sampler.node_t[sampler.n1[s]]),

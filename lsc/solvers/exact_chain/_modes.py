@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Modes", "Series", "Motion", "deformation_map"]
+__all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
 
 
 def deformation_map(N: int) -> np.ndarray:
@@ -50,12 +50,25 @@ class Modes:
     def __init__(self, kappa):
         self.kappa = np.asarray(kappa, float)
         self.w = np.sqrt(np.abs(self.kappa))
-        self.pos = np.flatnonzero(self.kappa > 0)
-        self.neg = np.flatnonzero(self.kappa < 0)
-        self.rigid = np.flatnonzero(self.kappa == 0)
         # (for one time at a time, in plain floats: ten times cheaper than NumPy on a few modes)
-        self._kinds = [(1 if k > 0 else -1 if k < 0 else 0, float(w))
-                       for k, w in zip(self.kappa, self.w)]
+        self._kappa = self.kappa.tolist()
+        w = self.w.tolist()
+        self._kinds = [(1 if k > 0 else -1 if k < 0 else 0, v) for k, v in zip(self._kappa, w)]
+        self.pos, self.neg, self.rigid = (
+            np.array([j for j, (kind, _) in enumerate(self._kinds) if kind == which], dtype=int)
+            for which in (1, -1, 0))
+        self._fastest = max(w, default=0.0)
+        self._slowest = min((v for v in w if v > 0), default=0.0)
+        # the harmonic modes (a slice where they follow each other, as they do after the rigid
+        # ones) and their ω, for the basis on a grid
+        if self.pos.size:
+            lo, hi = int(self.pos[0]), int(self.pos[-1]) + 1
+            idx = slice(lo, hi) if hi - lo == self.pos.size else self.pos
+            self._harmonic = (idx, self.w[self.pos])
+        else:
+            self._harmonic = None
+        # |S| <= 1/ω on a harmonic mode whatever the window (min with T in curvature_bounds)
+        self._inv_w = np.array([1.0 / v if k > 0 else math.inf for k, v in zip(self._kappa, w)])
 
     def basis_at(self, tau: float) -> tuple[list, list]:
         """``S, C`` (lists, one per mode) at one time ``tau`` [s] (as :meth:`basis`)."""
@@ -80,16 +93,24 @@ class Modes:
         near τ = 0): ``S = 2 sin h cos h / ω``, ``C = 2 (sin h / ω)²``, ``h = ωτ/2`` (and
         ``sinh, cosh``); ``S = τ, C = τ²/2`` for the rigid modes."""
         tau = np.asarray(tau, float).reshape(-1, 1)
+        if tau.shape[0] <= 4:   # (a few times: in plain floats, as basis_at)
+            S, C = zip(*(self.basis_at(t) for t in tau[:, 0].tolist()))
+            return np.array(S), np.array(C)
         S = np.empty((tau.shape[0], self.kappa.size))
         C = np.empty_like(S)
-        for idx, sin, cos in ((self.pos, np.sin, np.cos), (self.neg, np.sinh, np.cosh)):
-            if idx.size:
-                w = self.w[idx]
-                h = (0.5 * w) * tau
-                with np.errstate(over="ignore", invalid="ignore"):
-                    sw = sin(h) / w
-                    S[:, idx] = 2.0 * sw * cos(h)
-                    C[:, idx] = 2.0 * sw * sw
+        if self._harmonic is not None:
+            idx, w = self._harmonic
+            h = (0.5 * w) * tau
+            sw = np.sin(h) / w
+            S[:, idx] = 2.0 * sw * np.cos(h)
+            C[:, idx] = 2.0 * sw * sw
+        if self.neg.size:
+            w = self.w[self.neg]
+            h = (0.5 * w) * tau
+            with np.errstate(over="ignore", invalid="ignore"):
+                sw = np.sinh(h) / w
+                S[:, self.neg] = 2.0 * sw * np.cosh(h)
+                C[:, self.neg] = 2.0 * sw * sw
         if self.rigid.size:
             S[:, self.rigid] = tau
             C[:, self.rigid] = 0.5 * tau * tau
@@ -99,21 +120,23 @@ class Modes:
         """Bounds on ``|g''|`` over ``[0, T]`` for series of coefficients ``alpha, gamma``
         (..., n): ``g'' = Σ -κ α S + γ S'``, with ``|S| <= min(T, 1/ω)``, ``|S'| <= 1``
         (harmonic and rigid modes) and ``S <= sinh(λT)/λ``, ``S' <= cosh(λT)`` (hyperbolic)."""
-        k, w = self.kappa, self.w
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            s_max = np.where(k > 0, np.minimum(T, 1.0 / np.where(w > 0, w, 1.0)),
-                             np.where(k < 0, np.sinh(w * T) / np.where(w > 0, w, 1.0), T))
-            ds_max = np.where(k < 0, np.cosh(w * T), 1.0)
-        return np.abs(alpha * k) @ s_max + np.abs(gamma) @ ds_max
+        s_max = np.minimum(T, self._inv_w)
+        if not self.neg.size:
+            return np.abs(alpha * self.kappa) @ s_max + np.abs(gamma).sum(axis=-1)
+        ds_max = np.ones_like(s_max)
+        w = self.w[self.neg]
+        with np.errstate(over="ignore"):
+            s_max[self.neg] = np.sinh(w * T) / w
+            ds_max[self.neg] = np.cosh(w * T)
+        return np.abs(alpha * self.kappa) @ s_max + np.abs(gamma) @ ds_max
 
     def fastest(self) -> float:
         """The largest ``sqrt|κ|`` [1/s] (0: all rigid)."""
-        return float(np.max(self.w)) if self.w.size else 0.0
+        return self._fastest
 
     def slowest(self) -> float:
         """The smallest non-zero ``sqrt|κ|`` [1/s] (0: all rigid)."""
-        w = self.w[self.w > 0]
-        return float(np.min(w)) if w.size else 0.0
+        return self._slowest
 
 
 @dataclass
@@ -132,26 +155,48 @@ class Series:
 
     def __call__(self, tau):
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
-        if np.ndim(tau) == 0:
-            if not hasattr(self, "_coef"):
-                self._coef = list(zip(self.alpha.tolist(), self.gamma.tolist()))
+        if isinstance(tau, float) or np.ndim(tau) == 0:
             S, C = self.modes.basis_at(float(tau))
-            return self.c + sum(a * s + g * c for (a, g), s, c in zip(self._coef, S, C))
+            return self.c + sum(a * s + g * c for (a, g), s, c in zip(self._terms(), S, C))
         S, C = self.modes.basis(np.atleast_1d(tau))
-        out = self.c + S @ self.alpha + C @ self.gamma
-        return float(out[0]) if np.ndim(tau) == 0 else out
+        return self.c + S @ self.alpha + C @ self.gamma
+
+    def _terms(self) -> list:
+        """``[(α_j, γ_j)]`` as Python floats (for one time at a time)."""
+        if not hasattr(self, "_coef"):
+            self._coef = list(zip(self.alpha.tolist(), self.gamma.tolist()))
+        return self._coef
+
+    def with_slope(self, tau):
+        """``(g(τ), g'(τ))`` at one time ``tau`` [s] (or at times, 1-d), from one evaluation of
+        the basis (``g' = Σ α_j (1 - κ_j C_j) + γ_j S_j``)."""
+        if not isinstance(tau, float):
+            S, C = self.modes.basis(tau)
+            return (self.c + S @ self.alpha + C @ self.gamma,
+                    np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
+        S, C = self.modes.basis_at(tau)
+        g, dg = self.c, 0.0
+        for (a, c), k, s_j, c_j in zip(self._terms(), self.modes._kappa, S, C):
+            g += a * s_j + c * c_j
+            dg += a * (1.0 - k * c_j) + c * s_j
+        return g, dg
 
     def on(self, S, C):
         """``g`` on a grid whose basis is ``S, C`` (:meth:`Modes.basis`)."""
         return self.c + S @ self.alpha + C @ self.gamma
 
     def derivatives_at_zero(self, n: int) -> list[float]:
-        """``g(0), g'(0), ..., g^(n)(0)`` (``S(0) = C(0) = 0``)."""
-        out, g = [self.c], self
-        for _ in range(n):
-            g = g.derivative()
-            out.append(g.c)
-        return out
+        """``g(0), g'(0), ..., g^(n)(0)``: ``S^(2m+1)(0) = (-κ)^m``, ``C^(2m+2)(0) = (-κ)^m``
+        and the others vanish, so ``g^(2m+1)(0) = Σ α (-κ)^m``, ``g^(2m+2)(0) = Σ γ (-κ)^m``."""
+        return _at_zero(self.c, self.alpha.tolist(), self.gamma.tolist(),
+                        [-k for k in self.modes._kappa], n)
+
+    def sizes_at_zero(self, n: int, size: float) -> list[float]:
+        """The sizes of the terms summed into ``g(0), ..., g^(n)(0)`` (:meth:`derivatives_at_zero`
+        on ``|α|, |γ|, |κ|``; ``size``: that of ``g(0)``): their rounding is a few ulps of
+        these."""
+        return _at_zero(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
+                        [abs(k) for k in self.modes._kappa], n)
 
     def curvature_bound(self, T: float) -> float:
         """A bound on ``|g''|`` over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
@@ -163,29 +208,70 @@ class Series:
         return bool(np.any(used & (self.modes.kappa != 0)))
 
 
+class Shape:
+    """The modes and maps of one set of active slopes (they repeat from segment to segment, so
+    a chain keeps one per set): ``modes``, ``T`` (N, n) (``Δx = T q``), ``P`` (K, n)
+    (``ΔD = P q``), and the maps from the start velocities (N,) and contact forces (K,) to the
+    modal ``q'(0)``, ``q''(0)`` (n,).
+
+    Parameters: ``m`` (N,) masses [mass]; ``slope`` (K,) each contact's active slope
+    [force/length] (0 when open); ``incidence`` (N, K) the model's (contact ``k`` pushes
+    vehicle ``k`` back and ``k+1`` forward)."""
+
+    def __init__(self, m, slope, incidence):
+        C = -incidence.T   # (K, N): D = C x - gap
+        root = np.sqrt(m)
+        kappa, Q = _modes(C, slope, root)
+        self.modes = Modes(kappa)
+        self.T = Q / root[:, None]
+        self.P = C @ self.T
+        self.from_velocity = Q.T * root[None, :]
+        self.from_force = self.T.T @ incidence
+        # the contact forces and accelerations (K + N): from the forces at the start, and
+        # their modal rows; those whose extrema are searched (the forces of the contacts with
+        # a slope, the accelerations of vehicles between two of them: the others follow one
+        # force, or none)
+        inv_m = 1.0 / np.asarray(m, float)[:, None]
+        force_rows = slope[:, None] * self.P
+        self.peak_of_force = np.concatenate([np.eye(slope.size), incidence * inv_m])
+        self.peak_rows = np.concatenate([force_rows, (incidence @ force_rows) * inv_m])
+        active = [s != 0 for s in slope.tolist()]
+        pushed = [sum(a for a, x in zip(active, row) if x != 0) for row in incidence.tolist()]
+        self.searched = np.array([k for k, a in enumerate(active) if a]
+                                 + [len(active) + i for i, n in enumerate(pushed) if n > 1],
+                                 dtype=int)
+
+
+def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
+    """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...`` (``n + 1`` terms)."""
+    out, power = [c], [1.0] * len(alpha)
+    for p in range(1, n + 1):
+        out.append(math.fsum(x * q for x, q in zip(alpha if p % 2 else gamma, power)))
+        if p % 2 == 0:
+            power = [q * f for q, f in zip(power, factor)]
+    return out
+
+
 class Motion:
     """The closed-form motion of one segment.
 
     Parameters: ``m`` (N,) masses [mass]; ``x0, v0`` (N,) the state at the start [length,
     velocity]; ``slope`` (K,) each contact's active slope ``s_k`` [force/length] (0 when open)
     and ``force`` (K,) its force at the start [force]; ``incidence`` (N, K) the model's
-    (contact ``k`` pushes vehicle ``k`` back and ``k+1`` forward).
+    (contact ``k`` pushes vehicle ``k`` back and ``k+1`` forward); ``shape``: their
+    :class:`Shape`, if already built.
     """
 
-    def __init__(self, m, x0, v0, slope, force, incidence):
+    def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None):
         self.m, self.x0, self.v0 = m, x0, v0
-        N = m.size
-        C = -incidence.T   # (K, N): D = C x - gap
-        root = np.sqrt(m)
-        kappa, Q = _modes(C, slope, root)
-        self.modes = Modes(kappa)
+        shape = Shape(m, slope, incidence) if shape is None else shape
+        self.shape = shape
+        self.modes = shape.modes
         self.kappa = self.modes.kappa
-        self.T = Q / root[:, None]                       # Δx = T q
-        f0 = incidence @ force
-        self.a = Q.T @ (root * v0)                       # q'(0)
-        self.b = Q.T @ (f0 / root)                       # q''(0)
-        self.P = C @ self.T                              # ΔD = P q
-        self.N = N
+        self.T, self.P = shape.T, shape.P
+        self.a = shape.from_velocity @ v0                # q'(0)
+        self.b = shape.from_force @ force                # q''(0)
+        self.N = m.size
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
@@ -214,22 +300,24 @@ def _modes(C, slope, root):
     of vehicles joined by contacts of non-zero slope, ``κ = 0``), the others from ``eigh`` on
     their complement."""
     N = root.size
-    group = np.zeros(N, dtype=int)
-    for k, s in enumerate(slope):
-        group[k + 1] = group[k] if s != 0 else group[k] + 1
-    n_rigid = int(group[-1]) + 1
-    R = np.zeros((N, n_rigid))
-    R[np.arange(N), group] = root
-    R /= np.linalg.norm(R, axis=0)
+    group = [0]
+    for s in slope.tolist():
+        group.append(group[-1] if s != 0 else group[-1] + 1)
+    n_rigid = group[-1] + 1
+    roots = root.tolist()
+    mass = [0.0] * n_rigid   # (root² = m: each group's mass)
+    for g, r in zip(group, roots):
+        mass[g] += r * r
+    norm = [math.sqrt(x) for x in mass]
+    R = np.array([[r / norm[g] if g == j else 0.0 for j in range(n_rigid)]
+                  for g, r in zip(group, roots)])
     if n_rigid == N:
         return np.zeros(N), R
-    A = (C / root[None, :]).T @ (slope[:, None] * (C / root[None, :]))
-    A = 0.5 * (A + A.T)
+    scaled = C / root[None, :]
+    A = scaled.T @ (slope[:, None] * scaled)
     lam, V = np.linalg.eigh(A)
     elastic = np.argsort(np.abs(lam))[n_rigid:]
+    # (orthogonal to the rigid modes to rounding, and kept so: each group's momentum is exact)
     E = V[:, elastic]
-    E = E - R @ (R.T @ E)
-    E, _ = np.linalg.qr(E)
-    # Rayleigh quotients of the cleaned vectors (the eigenvalues they now carry)
-    lam_e = np.einsum("ij,ij->j", E, A @ E)
-    return np.concatenate([np.zeros(n_rigid), lam_e]), np.concatenate([R, E], axis=1)
+    E -= R @ (R.T @ E)
+    return np.concatenate([np.zeros(n_rigid), lam[elastic]]), np.concatenate([R, E], axis=1)

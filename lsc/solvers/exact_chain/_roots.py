@@ -6,8 +6,8 @@ hyperbolic terms) with known frequencies plus a quadratic. Its second derivative
 samples ``Δ`` apart ``g`` differs from its chord by at most ``B Δ²/8``: where both samples exceed
 that, ``g`` has no zero between them. The functions of a segment are sampled together at
 :data:`PER_RADIAN` samples per radian of its fastest mode; an interval the bound cannot clear is
-bisected until it can, a sample changes sign (a bracket, refined by Brent's method to a few ulps
-of the time), or it is narrower than :data:`TOUCH` of the window: a tangency, where the function
+bisected until it can, a sample changes sign (a bracket, refined to a few ulps of the time by
+Newton's method on the analytic derivative, kept inside it), or it is narrower than :data:`TOUCH` of the window: a tangency, where the function
 dips below zero by at most ``B (TOUCH T)²/8``, far below rounding, so the contact only touches.
 A function of the rigid modes alone is a quadratic, solved in closed form.
 """
@@ -17,11 +17,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ._modes import Modes, Series
 
-__all__ = ["earliest", "first_crossing", "extrema", "PER_RADIAN", "TOUCH", "FLAT"]
+__all__ = ["earliest", "first_crossing", "extrema", "Stack", "PER_RADIAN", "TOUCH", "FLAT"]
 
 #: Samples per radian of the fastest mode (the curvature bound does the rest).
 PER_RADIAN = 4.0
@@ -33,45 +32,94 @@ _EPS = float(np.finfo(float).eps)
 
 def _grid(modes: Modes, lo: float, hi: float) -> np.ndarray:
     n = max(1, int(math.ceil((hi - lo) * PER_RADIAN * modes.fastest())))
-    return np.linspace(lo, hi, n + 1)
+    tt = lo + ((hi - lo) / n) * np.arange(n + 1.0)
+    tt[-1] = hi
+    return tt
 
 
-def _stack(funcs):
-    """``c`` (E,), ``alpha``, ``gamma`` (E, n) of a list of series on the same modes."""
-    return (np.array([g.c for g in funcs]), np.array([g.alpha for g in funcs]),
-            np.array([g.gamma for g in funcs]))
+class Stack:
+    """Series on the same modes stacked for sampling them together: ``c`` (E,), ``alpha``,
+    ``gamma`` (E, n); :meth:`series` gives each back (for the search between samples)."""
+
+    def __init__(self, modes: Modes, c, alpha, gamma, funcs=None):
+        self.modes, self.c, self.alpha, self.gamma = modes, c, alpha, gamma
+        self._funcs = list(funcs) if funcs is not None else [None] * len(c)
+
+    @classmethod
+    def of(cls, funcs: list[Series]) -> "Stack":
+        """The stack of ``funcs``."""
+        return cls(funcs[0].modes, np.array([g.c for g in funcs]),
+                   np.array([g.alpha for g in funcs]), np.array([g.gamma for g in funcs]),
+                   funcs)
+
+    def series(self, j: int) -> Series:
+        """Function ``j`` as a :class:`Series`."""
+        if self._funcs[j] is None:
+            self._funcs[j] = Series(float(self.c[j]), self.alpha[j], self.gamma[j], self.modes)
+        return self._funcs[j]
+
+    def take(self, rows) -> "Stack":
+        """The functions ``rows`` (indices) alone."""
+        return Stack(self.modes, self.c[rows], self.alpha[rows], self.gamma[rows],
+                     [self._funcs[j] for j in rows])
+
+    def derivative(self) -> "Stack":
+        """Every function's derivative (:meth:`Series.derivative`)."""
+        return Stack(self.modes, self.alpha.sum(axis=1), self.gamma,
+                     -self.modes.kappa * self.alpha)
+
+    def on(self, tt):
+        """The functions (E, len(tt)) at times ``tt`` (1-d) [s]."""
+        S, C = self.modes.basis(tt)
+        return self.c[:, None] + self.alpha @ S.T + self.gamma @ C.T
+
+    def curvature_bounds(self, T: float):
+        """Bounds on each ``|g''|`` (E,) over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
+        return self.modes.curvature_bounds(self.alpha, self.gamma, T)
 
 
-def earliest(funcs: list[Series], lo: float, hi: float) -> tuple[float | None, int | None]:
-    """The first downward zero crossing in ``(lo, hi]`` of any of ``funcs`` (each positive at
-    ``lo``): ``(τ, position in funcs)``, the first function on a tie; ``(None, None)`` if none."""
-    modes = funcs[0].modes
+def earliest(funcs, lo: float, hi: float,
+             starts=None) -> tuple[float | None, int | None]:
+    """The first downward zero crossing in ``(lo, hi]`` of any of ``funcs`` (a list of
+    :class:`Series`, or their :class:`Stack`; each positive at ``lo``): ``(τ, position in
+    funcs)``, the first function on a tie; ``(None, None)`` if none. ``starts``: where each
+    function's search starts instead of ``lo`` (as :func:`first_crossing`: at the start itself
+    where the function is not positive there)."""
+    stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
+    modes = stack.modes
+    starts = [lo] * len(stack.c) if starts is None else list(starts)
     best, best_j = None, None
     if modes.fastest() == 0.0:
-        for j, g in enumerate(funcs):
-            tau = _quadratic_crossing(g, lo, hi)
+        for j, start in enumerate(starts):
+            g = stack.series(j)
+            tau = start if start > lo and not g(start) > 0 else _quadratic_crossing(g, start, hi)
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
     tt = _grid(modes, lo, hi)
-    S, C = modes.basis(tt)
-    c, A, G = _stack(funcs)
-    vals = c[:, None] + A @ S.T + G @ C.T
-    margin = modes.curvature_bounds(A, G, hi) * (tt[1] - tt[0]) ** 2 / 8.0
-    for j, g in enumerate(funcs):
-        v = vals[j]
-        end = len(tt) - 1 if best is None else int(np.searchsorted(tt, best, side="right"))
-        end = min(end, len(tt) - 1)
-        if end < 1:
-            continue
-        below = np.flatnonzero(v[1:end + 1] <= 0)
-        last = below[0] if below.size else end - 1
-        unclear = np.flatnonzero(np.minimum(v[:last + 1], v[1:last + 2]) <= margin[j])
-        B = margin[j] * 8.0 / (tt[1] - tt[0]) ** 2
-        for i in unclear:
-            tau = _hunt(g, tt[i], tt[i + 1], v[i], v[i + 1], B, TOUCH * max(hi, 1e-300))
+    vals = stack.on(tt)
+    step = tt[1] - tt[0]
+    bounds = stack.curvature_bounds(hi)
+    unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
+    if max(starts) > lo:   # (the intervals before a function's start are not its own)
+        first = np.searchsorted(tt, starts, side="right") - 1
+        unclear &= np.arange(unclear.shape[1])[None, :] >= first[:, None]
+    times = tt.tolist()
+    width = TOUCH * max(hi, 1e-300)
+    rows = np.flatnonzero(unclear.any(axis=1))
+    # the functions in the order of their first unclear interval: one whose interval starts
+    # after the earliest crossing found is not searched
+    for j in rows[np.argsort(unclear[rows].argmax(axis=1), kind="stable")].tolist():
+        v, B, g = vals[j].tolist(), float(bounds[j]), stack.series(j)
+        for i in np.flatnonzero(unclear[j]).tolist():
+            if best is not None and times[i] > best:
+                break
+            a, ga = times[i], v[i]
+            if a < starts[j]:
+                a, ga = starts[j], g(starts[j])
+            tau = a if not ga > 0 else _hunt(g, a, times[i + 1], ga, v[i + 1], B, width)
             if tau is not None:
-                if best is None or tau < best:
+                if best is None or tau < best or tau == best and j < best_j:
                     best, best_j = tau, j
                 break
     return best, best_j
@@ -103,15 +151,36 @@ def _hunt(g, a, b, ga, gb, B, width):
 
 
 def _refine(g, a, b, ga, gb):
-    """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time. (The sign
-    change is that of the samples ``ga, gb``; where ``g`` evaluated on its own at the ends, in a
-    different order of rounding, shows none, the zero is at the end nearer to it, to rounding.)"""
+    """The zero in ``[a, b]`` where ``g`` changes sign, to a few ulps of the time: Newton's
+    method on the analytic derivative (:meth:`~._modes.Series.with_slope`), kept inside the
+    bracket (a step that leaves it, or that does not halve it three times running, bisects).
+    (The sign change is that of the samples ``ga, gb``; where ``g`` evaluated on its own, in a
+    different order of rounding, shows none near an end, the bracket closes on that end: the
+    zero is there to rounding.)"""
     if ga == 0 or gb == 0:
         return a if ga == 0 else b
-    fa, fb = g(a), g(b)
-    if fa * fb > 0 or fa == 0 or fb == 0:
-        return a if abs(fa) <= abs(fb) else b
-    return float(brentq(g, a, b, xtol=1e-300, rtol=4 * _EPS, maxiter=500))
+    up = gb > 0
+    t = a - ga * (b - a) / (gb - ga)
+    width, stalled = b - a, 0
+    for _ in range(300):
+        f, df = g.with_slope(t)
+        if f == 0.0:
+            return t
+        if (f > 0) == up:
+            b = t
+        else:
+            a = t
+        if b - a <= 0.5 * width:
+            width, stalled = b - a, 0
+        else:
+            stalled += 1
+        new = t - f / df if df != 0.0 else math.nan
+        if not a < new < b or stalled >= 3:
+            new = 0.5 * (a + b)
+        if abs(new - t) <= 2 * _EPS * abs(t) or b - a <= 4 * _EPS * max(abs(a), abs(b)):
+            return new
+        t = new
+    return t
 
 
 def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:
@@ -131,41 +200,90 @@ def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:
     return down[0] if down else None
 
 
-def extrema(funcs: list[Series], T: float) -> list[list[float]]:
-    """For each of ``funcs``, the times in ``[0, T]`` that hold its extreme values on it
-    besides the ends: where its derivative changes sign (refined to a few ulps), and the ends
-    of the intervals where ``g`` provably varies by less than :data:`FLAT` of its size (a
-    derivative grazing zero there need not be resolved: any point of the interval gives the
-    value to rounding)."""
-    modes = funcs[0].modes
-    out = [[] for _ in funcs]
+def extrema(funcs, T: float) -> list[list[float]]:
+    """For each of ``funcs`` (a list of :class:`Series`, or their :class:`Stack`), the times
+    in ``[0, T]`` that hold its extreme values on it besides the ends: where its derivative
+    changes sign (refined to a few ulps), and the ends of the intervals where ``g`` provably
+    varies by less than :data:`FLAT` of its size (a derivative grazing zero there need not be
+    resolved: any point of the interval gives the value to rounding)."""
+    stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
+    modes = stack.modes
+    out = [[] for _ in stack.c]
     if T <= 0:
         return out
-    ders = [g.derivative() for g in funcs]
+    ders = stack.derivative()
     tt = _grid(modes, 0.0, T) if modes.fastest() > 0 else np.linspace(0.0, T, 3)
     S, C = modes.basis(tt)
-    c, A, G = _stack(funcs)
-    size = np.max(np.abs(c[:, None] + A @ S.T + G @ C.T), axis=1)
-    c, A, G = _stack(ders)
-    vals = c[:, None] + A @ S.T + G @ C.T
-    bounds = modes.curvature_bounds(A, G, T)
-    margin = bounds * (tt[1] - tt[0]) ** 2 / 8.0
-    for j, d in enumerate(ders):
-        if not (np.any(d.alpha) or np.any(d.gamma)):
-            continue   # constant: no interior extremum
-        v = vals[j]
-        start = _taylor_clear(d, T, float(np.sum(np.abs(funcs[j].alpha))))
-        unclear = (v[:-1] * v[1:] <= 0) | (np.minimum(np.abs(v[:-1]), np.abs(v[1:])) <= margin[j])
-        for i in np.flatnonzero(unclear & (tt[1:] > start)):
-            a = max(tt[i], start)
-            out[j] += _sign_changes(d, a, tt[i + 1], v[i] if a == tt[i] else d(a), v[i + 1],
-                                    bounds[j], FLAT * size[j])
+    size = np.max(np.abs(stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T), axis=1)
+    vals = ders.c[:, None] + ders.alpha @ S.T + ders.gamma @ C.T
+    bounds = ders.curvature_bounds(T)
+    margin = (bounds * (tt[1] - tt[0]) ** 2 / 8.0)[:, None]
+    unclear = ((vals[:, :-1] * vals[:, 1:] <= 0)
+               | (np.minimum(np.abs(vals[:, :-1]), np.abs(vals[:, 1:])) <= margin))
+    times = tt.tolist()
+    for j in np.flatnonzero(unclear.any(axis=1)).tolist():
+        d = ders.series(j)
+        if not (d.alpha.any() or d.gamma.any()):
+            continue   # a constant: no interior extremum
+        start = _taylor_clear(d, T, float(np.sum(np.abs(stack.alpha[j]))))
+        B, flat = float(bounds[j]), FLAT * float(size[j])
+        idx = np.flatnonzero(unclear[j] & (tt[1:] > start))
+        if idx.size > MANY:   # (a derivative ringing: its plain sign changes refined at once)
+            a, b, da, db = tt[idx], tt[idx + 1], vals[j, idx], vals[j, idx + 1]
+            plain = ((da * db <= 0) & (da != db) & (a >= start)
+                     & ((np.maximum(np.abs(da), np.abs(db)) + B * (b - a) ** 2 / 8.0) * (b - a)
+                        > flat))
+            out[j] += _refine_many(d, a[plain], b[plain], da[plain], db[plain]).tolist()
+            idx = idx[~plain]
+        v = vals[j].tolist()
+        for i in idx.tolist():
+            a = max(times[i], start)
+            out[j] += _sign_changes(d, a, times[i + 1], v[i] if a == times[i] else d(a),
+                                    v[i + 1], B, flat)
     return out
 
 
+#: More intervals than this to search in one function: its plain sign changes are refined
+#: together (:func:`_refine_many`).
+MANY = 16
+#: How close :func:`_refine_many` puts a zero of a derivative, relative to its time.
+EXTREMUM_RTOL = 1e-13
+
+
+def _refine_many(g, a, b, ga, gb):
+    """:func:`_refine` on many brackets at once (arrays; each a sign change of the samples
+    ``ga, gb``, neither zero), by the same steps, to :data:`EXTREMUM_RTOL` of the time: these
+    are the zeros of a derivative, where the function's value is off by the square of that
+    (a ringing derivative's rounding moves its zeros by more than a few ulps: Newton's last
+    steps would wander in it)."""
+    up = gb > 0
+    t = a - ga * (b - a) / (gb - ga)
+    width, stalled = b - a, np.zeros(a.shape, int)
+    out, active = t.copy(), np.ones(a.shape, bool)
+    for _ in range(300):
+        if not active.any():
+            break
+        f, df = g.with_slope(t)
+        right = (f > 0) == up
+        b, a = np.where(active & right, t, b), np.where(active & ~right, t, a)
+        halved = b - a <= 0.5 * width
+        width, stalled = np.where(halved, b - a, width), np.where(halved, 0, stalled + 1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            new = t - f / df
+        close = np.abs(new - t) <= EXTREMUM_RTOL * np.abs(t)
+        new = np.where(~close & (~((a < new) & (new < b)) | (stalled >= 3)), 0.5 * (a + b), new)
+        done = active & ((f == 0) | close
+                         | (b - a <= 4 * _EPS * np.maximum(np.abs(a), np.abs(b))))
+        out = np.where(done, np.where(f == 0, t, new), out)
+        active &= ~done
+        t = np.where(active, new, t)
+    return np.where(active, t, out)
+
+
 def _taylor_clear(d: Series, T: float, rounding: float) -> float:
-    """(``rounding``: the size of the terms whose sum is ``d(0)``.) A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
-    rounding does not hide (0 where ``d(0)`` itself is clear of rounding, or none is): there
+    """A time up to which ``d`` provably keeps the sign of its first derivative at 0 that
+    rounding does not hide (0 where ``d(0)`` itself is clear of rounding, or none is;
+    ``rounding``: the size of the terms whose sum is ``d(0)``): there
     ``d ≈ d_p τ^p/p!`` and ``|d^(p+1)| <= B``, so ``d`` keeps its sign while
     ``|d_p| τ^p/p! > B τ^(p+1)/(p+1)!`` (the lower orders, rounding, are neglected). A function
     pushed into motion far down a chain is flat at the start (``τ^9``), where sampling cannot
@@ -173,14 +291,8 @@ def _taylor_clear(d: Series, T: float, rounding: float) -> float:
     n = 2 * d.alpha.size + 1
     if abs(d.c) > 64 * _EPS * rounding:
         return 0.0   # (clear of rounding at 0: the common case, decided without the series)
-    noise = Series(rounding, np.abs(d.alpha), np.abs(d.gamma), d.modes)
     vals = d.derivatives_at_zero(n)
-    scale = []
-    for _ in range(n + 1):
-        scale.append(noise.c)
-        noise = Series(float(np.sum(noise.alpha)), noise.gamma,
-                       np.abs(d.modes.kappa) * noise.alpha, d.modes)
-    tol = [64 * _EPS * x for x in scale]
+    tol = [64 * _EPS * x for x in d.sizes_at_zero(n, rounding)]
     if abs(vals[0]) > tol[0]:
         return 0.0
     p = next((k for k in range(1, n + 1) if abs(vals[k]) > tol[k]), None)

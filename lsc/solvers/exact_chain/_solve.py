@@ -17,16 +17,17 @@ import time
 
 import numpy as np
 
+from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
-from ._modes import Motion, Series, deformation_map
-from ._roots import PER_RADIAN, earliest, extrema, first_crossing
+from ._modes import Motion, Series, Shape, deformation_map
+from ._roots import PER_RADIAN, Stack, earliest, extrema
 
 __all__ = ["solve"]
 
 #: Event functions within this fraction of their scale (length, speed) are on their surface.
 START_TOL = 1e-13
-#: Most samples of one event function in one segment before the search gives up (the segment
-#: then ends at the last time searched with no event, and the run says the crash never ends).
+#: Most samples of one event function in one segment before the search gives up (a
+#: SimulationError that says so: a contact ringing on a near-plastic unloading line).
 MAX_SAMPLES = 2_000_000
 _EPS = float(np.finfo(float).eps)
 
@@ -50,7 +51,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     # the peaks between the events, located exactly by the chain's own search
     return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
                         stats=stats, n_samples=n_samples, y_post=totals["y_post"],
-                        peaks=chain.spans, interior=False)
+                        peaks=chain.spans, interior=False, rows=chain.rows(segments))
 
 
 def _transitions(model):
@@ -80,6 +81,24 @@ class _Chain:
         self.t_scale = model.time_scale()
         self.length = model.v_scale * self.t_scale
         self.spans = []   # (t0, t1, peak force (K,), peak acceleration (N,)) of each segment
+        self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
+        self.ends = []    # the state at the start and at the end of each segment
+
+    def rows(self, segments) -> dict | None:
+        """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
+        every segment, in its own discrete state) from the states at the segments' ends, the
+        model's forces evaluated once on all of them (``None``: no segment)."""
+        if not segments or len(segments) != len(self.ends):
+            return None
+        N = self.N
+        Y = np.array([y for pair in self.ends for y in pair]).T      # (2N, 2S)
+        # each contact's discrete state on both ends of every segment, as arrays
+        disc = [_Ends(segments, k) for k in range(self.K)]
+        p = dict(self.model.params, gap=self.gap[:, None])
+        F, _, acc = self.model.accelerations(Y, disc, p)
+        D, _ = self.model.deformation(Y, p)
+        return {"t": np.array([t for s in segments for t in (s.t0, s.t1)]), "x": Y[:N].T,
+                "v": Y[N:2 * N].T, "a": acc.T, "deformation": D.T, "force": F.T}
 
     def advance(self, t0, y0, disc, horizon) -> Step:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
@@ -91,36 +110,46 @@ class _Chain:
         slope = np.array([float(st["s"]) for st in contacts])
         force = np.array([float(st["fa"]) + float(st["s"]) * (D0[k] - float(st["da"]))
                           for k, st in enumerate(contacts)])
-        motion = Motion(self.m, x0, v0, slope, force, self.incidence)
+        key = tuple(slope.tolist())
+        if key not in self.shapes:
+            self.shapes[key] = Shape(self.m, slope, self.incidence)
+        motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0)
         tau, event = self._earliest(motion, funcs, horizon - t0)
+        if event is None and tau is not None:
+            raise SimulationError(
+                f"exact-chain: {MAX_SAMPLES} samples in one segment by t = {t0 + tau:.6g} s and "
+                f"no event: a contact rings at {motion.modes.fastest():.3g} rad/s for longer "
+                "than one segment can follow (a near-plastic contact, its unloading line up to "
+                "1/e² times stiffer than its loading, held shut by a neighbour: it chatters); "
+                "check the scene for contacts that chatter")
         if event is None:
-            tau = max(horizon - t0, 0.0) if tau is None else tau
+            tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
-        self.spans.append((t0, t0 + tau, *self._peaks(motion, slope, force, tau)))
+        self.spans.append((t0, t0 + tau, *self._peaks(motion, force, tau)))
+        self.ends.append((y0, end))
 
         def dense(tt, motion=motion, t0=t0):
             return motion.state(np.asarray(tt, float) - t0)
 
         return Step(t0 + tau, end, event, dense, 1, 0)
 
-    def _peaks(self, motion, slope, force, tau):
+    def _peaks(self, motion, force, tau):
         """The largest force of each contact (K,) and the acceleration of largest magnitude of
         each vehicle (N,), signed, over ``[0, τ]``: at the ends or at an interior extremum
-        (:func:`~._roots.extrema`), each a series in closed form."""
-        rows = slope[:, None] * motion.P
-        fa, fg = rows * motion.a, rows * motion.b
-        inc, m = self.incidence, self.m[:, None]
-        c = np.concatenate([force, (inc @ force) / self.m])
-        alpha = np.concatenate([fa, (inc @ fa) / m])
-        gamma = np.concatenate([fg, (inc @ fg) / m])
-        series = [Series(float(c[j]), alpha[j], gamma[j], motion.modes) for j in range(c.size)]
-        inner = extrema(series, tau)
-        peaks = []
-        for g, times in zip(series, inner):
-            vals = g(np.array([0.0, tau, *times]))
-            peaks.append(vals[np.argmax(np.abs(vals))] if len(peaks) >= self.K else np.max(vals))
-        return np.array(peaks[: self.K]), np.array(peaks[self.K:])
+        (:func:`~._roots.extrema`), each a series in closed form. The extrema are searched on
+        the quantities :class:`~._modes.Shape` names (the others have theirs at the same
+        times); every quantity is then evaluated at all the times found, once."""
+        shape = motion.shape
+        stack = Stack(motion.modes, shape.peak_of_force @ force, shape.peak_rows * motion.a,
+                      shape.peak_rows * motion.b)
+        times = [0.0, tau]
+        if shape.searched.size:
+            for found in extrema(stack.take(shape.searched), tau):
+                times += found
+        vals = stack.on(np.array(times))
+        acc = vals[self.K:]
+        return vals[: self.K].max(axis=1), acc[np.arange(self.N), np.argmax(np.abs(acc), axis=1)]
 
     # ------------------------------------------------------------------ events
     def _event_functions(self, motion, disc, D0, W0, x0, v0):
@@ -153,30 +182,40 @@ class _Chain:
             if s is not None:
                 pending.append((i, g, s))
         best, best_i = None, None
-        # each function that leaves its surface, over the interval before the shared windows
-        first = min(limit, 4 * math.pi / modes.slowest()) if modes.slowest() else limit
-        for i, g, s in pending:
-            if 0.0 < s < first:
-                tau = first_crossing(g, s, first)
-                if tau is not None and (best is None or tau < best):
-                    best, best_i = tau, i
         # windows from one period of the fastest mode, doubling up to two of the slowest (an
-        # event near the start, as on a stiff rebound line, costs few samples)
+        # event near the start, as on a stiff rebound line, costs few samples); a function that
+        # leaves its surface is searched from where it provably has
+        first = min(limit, 4 * math.pi / modes.slowest()) if modes.slowest() else limit
         lo = 0.0
         window = min(first, 2 * math.pi / modes.fastest()) if modes.fastest() else first
         budget = MAX_SAMPLES / (PER_RADIAN * omega)
+        stack = Stack.of([g for _, g, _ in pending]) if pending else None
         while pending and lo < limit and (best is None or lo < best):
             hi = min(lo + window, limit, best if best is not None else math.inf)
             window = min(2 * window, first)
-            live = [(i, g) for i, g, s in pending if s <= lo or (lo > 0 and s < hi)]
+            live = [j for j, (_, _, s) in enumerate(pending) if s < hi]
             if live:
-                tau, j = earliest([g for _, g in live], lo, hi)
+                tau, j = earliest(stack if len(live) == len(pending) else stack.take(live),
+                                  lo, hi, [max(pending[j][2], lo) for j in live])
                 if tau is not None and (best is None or tau < best):
-                    best, best_i = tau, live[j][0]
+                    best, best_i = tau, pending[live[j]][0]
             lo = hi
             if lo >= budget and best is None:
                 return lo, None
         return (best, best_i) if best_i is not None else (None, None)
+
+
+class _Ends(dict):
+    """Contact ``k``'s discrete state on both ends of every segment: each entry an array (2S,),
+    gathered when the law first reads it."""
+
+    def __init__(self, segments, k: int):
+        super().__init__()
+        self.segments, self.k = segments, k
+
+    def __missing__(self, name):
+        value = self[name] = np.repeat([s.disc[self.k][name] for s in self.segments], 2)
+        return value
 
 
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
