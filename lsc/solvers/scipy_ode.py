@@ -35,7 +35,7 @@ from scipy.integrate import OdeSolution
 from scipy.optimize import brentq
 
 from ..contact import HysteresisLaw
-from ..effects import BrakeEffect, integrable_features
+from ..effects import BrakeEffect
 from ..errors import SimulationError
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
