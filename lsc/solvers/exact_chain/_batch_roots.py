@@ -189,38 +189,45 @@ F_BIG = np.iinfo(np.int64).max
 def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
-    method on the closed-form derivative, kept inside the bracket (a step that leaves it, or
-    does not halve it, bisects), until the step is a few ulps of the time (or of the bracket's
-    width, for a zero at the start)."""
-    sign = np.where(np.asarray(fa) > 0, 1.0, -1.0)
+    method on the closed-form derivative, kept inside the bracket (a step that leaves it
+    bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero at the start). The
+    brackets still open are the only ones computed on."""
+    fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
-    floor = _EPS * (b - a)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
-    w = g.w[:, 0, :] if g.w.ndim == 3 else g.w
-    alpha, gamma, kappa = g.alpha[:, 0], g.gamma[:, 0], g.kappa
-    c = g.c[:, 0]
-    live = np.flatnonzero((np.asarray(fb) != 0) & (np.asarray(fa) != 0))
-    x[np.asarray(fa) == 0] = a[np.asarray(fa) == 0]
+    x[fa == 0] = a[fa == 0]
+    live = np.flatnonzero((fb != 0) & (fa != 0))
+    if not live.size:
+        return x
+    # the open brackets' own arrays, compacted as brackets close
+    w = (g.w[:, 0, :] if g.w.ndim == 3 else g.w)[live]
+    al, ga, ka = g.alpha[live, 0], g.gamma[live, 0], g.kappa[live]
+    c = g.c[live, 0]
+    sign = np.where(fa[live] > 0, 1.0, -1.0)
+    lo, hi, xl = a[live], b[live], x[live]
+    floor = _EPS * (hi - lo)
     for _ in range(iterations):
-        if not live.size:
-            break
-        xl = x[live]
-        S, C = basis(w[live], xl)
-        al, ga = alpha[live], gamma[live]
-        f = sign[live] * (c[live] + np.sum(al * S + ga * C, axis=1))
-        df = sign[live] * np.sum(al + ga * S - kappa[live] * al * C, axis=1)
-        lo, hi = a[live], b[live]
+        S, C = basis(w, xl)
+        f = sign * (c + np.sum(al * S + ga * C, axis=1))
+        df = sign * np.sum(al + ga * S - ka * al * C, axis=1)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
         with np.errstate(all="ignore"):
             new = xl - f / df
-        tol = 4 * _EPS * np.abs(xl) + floor[live]
+        tol = 4 * _EPS * np.abs(xl) + floor
         done = (f == 0) | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
-        a[live], b[live] = lo, hi
-        x[live] = np.where(f == 0, xl, new)
-        live = live[~done]
+        xl = np.where(f == 0, xl, new)
+        if done.any():
+            x[live[done]] = xl[done]
+            keep = ~done
+            if not keep.any():
+                return x
+            live, w, al, ga, ka, c, sign = (live[keep], w[keep], al[keep], ga[keep], ka[keep],
+                                            c[keep], sign[keep])
+            lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
+    x[live] = xl
     return x
 
 
