@@ -206,11 +206,17 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     sign = np.where(fa[live] > 0, 1.0, -1.0)
     lo, hi, xl = a[live], b[live], x[live]
     floor = _EPS * (hi - lo)
-    for _ in range(iterations):
+    # the state two steps back: a step that comes back to it (a cycle between two floats
+    # round the zero, where the function is rounding) repeats for good, so the state the last
+    # step would leave is known at once (by the parity of the steps left)
+    back = (np.full(live.size, np.nan),) * 3
+    for k in range(iterations):
+        x_k = xl
         S, C = basis(w, xl)
         f = sign * (c + np.sum(al * S + ga * C, axis=1))
         df = sign * np.sum(al + ga * S - ka * al * C, axis=1)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
+        state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
         with np.errstate(all="ignore"):
             new = xl - f / df
@@ -219,14 +225,20 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
         xl = np.where(f == 0, xl, new)
+        cycle = ~done & (xl == back[0]) & (lo == back[1]) & (hi == back[2])
+        if cycle.any():
+            x[live[cycle]] = (xl if (iterations - k - 1) % 2 == 0 else x_k)[cycle]
+            done |= cycle
+        back = state
         if done.any():
-            x[live[done]] = xl[done]
+            x[live[done]] = np.where(cycle, x[live], xl)[done]
             keep = ~done
             if not keep.any():
                 return x
             live, w, al, ga, ka, c, sign = (live[keep], w[keep], al[keep], ga[keep], ka[keep],
                                             c[keep], sign[keep])
             lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
+            back = tuple(a[keep] for a in back)
     x[live] = xl
     return x
 
