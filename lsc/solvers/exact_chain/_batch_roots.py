@@ -297,15 +297,20 @@ def extremes(g: Sums, T, largest):
     bottom = np.full((b, F), np.inf)
     undecided = np.zeros(b, bool)
     late = []
-    # the intervals still to sample: member, start, end, step, level (0: the end is T)
+    # the intervals still to sample: member, start, end, step, level (0: the end is T), and
+    # the pass one window at a time would sample it on (its age)
     r = np.arange(b)
     lo, hi, h, level = np.zeros(b), np.asarray(T, float), step, np.zeros(b, int)
-    for _ in range(MAX_WINDOWS * 4):
+    age = np.zeros(b, int)
+    passes = MAX_WINDOWS * 4
+    for k in range(passes):
         if not r.size:
             break
-        end = np.where(level == 0, np.minimum(lo + WINDOW * h, hi), hi)
-        tt = np.minimum(lo[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
-        tt[:, -1] = end
+        # the level-0 intervals take windows that double (1, 2, 4, ... up to 64 a pass),
+        # each placed as one window at a time would place it
+        first = level == 0
+        count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
+        tt, end = _windows(lo, hi, h, first, count)
         gl, dl, ddl = g.take(r), d.take(r), dd.take(r)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
@@ -345,15 +350,34 @@ def extremes(g: Sums, T, largest):
                 late.append((r[m], j, excess[m, j, i]))
             m, i = np.nonzero((bad & ~deep).any(axis=1))
             new.append((r[m], tt[m, i], tt[m, i + 1], (tt[m, i + 1] - tt[m, i]) / WINDOW,
-                        level[m] + 1))
-        go = (level == 0) & (end < hi)
-        new.append((r[go], end[go], hi[go], h[go], level[go]))
-        r, lo, hi, h, level = (np.concatenate(x) for x in zip(*new))
-        keep = ~undecided[r]
-        r, lo, hi, h, level = r[keep], lo[keep], hi[keep], h[keep], level[keep]
+                        level[m] + 1, age[m] + i // WINDOW + 1))
+        go = first & (end < hi)
+        new.append((r[go], end[go], hi[go], h[go], level[go], age[go] + count))
+        r, lo, hi, h, level, age = (np.concatenate(x) for x in zip(*new))
+        late_pass = age >= passes      # (beyond the passes one window at a time would take)
+        undecided[r[late_pass]] = True
+        keep = ~late_pass
+        r, lo, hi, h, level, age = r[keep], lo[keep], hi[keep], h[keep], level[keep], age[keep]
     undecided[r] = True
     size = np.maximum(np.abs(top), np.abs(bottom))
     for m, j, excess in late:
         undecided[m[excess > FLAT * size[m, j]]] = True
     peaks = np.where(largest[None, :] | (np.abs(top) >= np.abs(bottom)), top, bottom)
     return peaks, undecided
+
+
+def _windows(lo, hi, h, first, count):
+    """Sample times (m, count WINDOW + 1) of the intervals ``[lo, hi]`` (m,) sampled every
+    ``h``: where ``first``, ``count`` windows of :data:`WINDOW` steps one after the other, each
+    ending at ``min(its start + WINDOW h, hi)`` (the last one's end returned (m,)); elsewhere
+    one window ending at ``hi``; the rest of a row is its end repeated (intervals of width 0)."""
+    tt = np.empty((lo.size, count * WINDOW + 1))
+    steps = h[:, None] * np.arange(WINDOW + 1)
+    start = lo
+    for j in range(count):
+        end = np.where(first, np.minimum(start + WINDOW * h, hi), hi)
+        block = tt[:, j * WINDOW:(j + 1) * WINDOW + 1]
+        np.minimum(start[:, None] + steps, end[:, None], out=block)
+        block[:, -1] = end
+        start = end
+    return tt, end
