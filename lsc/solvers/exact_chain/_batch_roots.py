@@ -311,7 +311,7 @@ def extremes(g: Sums, T, largest):
         first = level == 0
         count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
         tt, end = _windows(lo, hi, h, first, count)
-        gl, dl, ddl = g.take(r), d.take(r), dd.take(r)
+        gl, dl = g.take(r), d.take(r)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
         np.fmax.at(top, r, np.max(vals, axis=2))
@@ -337,18 +337,21 @@ def extremes(g: Sums, T, largest):
         grazing = ~change & (low <= margin)
         new = []
         if grazing.any():
-            size = np.maximum(np.abs(top[r]), np.abs(bottom[r]))[:, :, None]
-            excess = w * (margin - low)
-            ddv = ddl.on(S, C)
+            q = np.flatnonzero(grazing.any(axis=(1, 2)))     # (the rows that have some)
+            rq, wq = r[q], w[q]
+            size = np.maximum(np.abs(top[rq]), np.abs(bottom[rq]))[:, :, None]
+            excess = wq * (margin[q] - low[q])
+            ddv = dd.take(rq).on(S[q], C[q])
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
-                                      > Bdd[r][:, :, None] * w ** 2 / 8.0)
-            bad = grazing & ~monotone & (excess > FLAT * size)                # (m, F, W)
-            deep = bad & (level >= PEAK_LEVELS)[:, None, None]
+                                      > Bdd[rq][:, :, None] * wq ** 2 / 8.0)
+            bad = grazing[q] & ~monotone & (excess > FLAT * size)             # (m, F, W)
+            deep = bad & (level[q] >= PEAK_LEVELS)[:, None, None]
             if deep.any():   # (judged at the end, against the function's size on [0, T])
                 m, j, i = np.nonzero(deep)
-                late.append((r[m], j, excess[m, j, i]))
+                late.append((rq[m], j, excess[m, j, i]))
             m, i = np.nonzero((bad & ~deep).any(axis=1))
+            m = q[m]
             new.append((r[m], tt[m, i], tt[m, i + 1], (tt[m, i + 1] - tt[m, i]) / WINDOW,
                         level[m] + 1, age[m] + i // WINDOW + 1))
         go = first & (end < hi)
