@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, basis
+from ._batch_modes import Sums
 from ._roots import PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
@@ -200,10 +200,16 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     if not live.size:
         return x
     # the open brackets' own arrays, compacted as brackets close
+    # (the function made positive at ``a`` by its sign, which rounds alike; the basis as
+    # :func:`._batch_modes.basis` computes it, its per-mode constants taken once)
     w = (g.w[:, 0, :] if g.w.ndim == 3 else g.w)[live]
-    al, ga, ka = g.alpha[live, 0], g.gamma[live, 0], g.kappa[live]
-    c = g.c[live, 0]
-    sign = np.where(fa[live] > 0, 1.0, -1.0)
+    rigid = w == 0
+    ws = np.where(rigid, 1.0, w)
+    half = 0.5 * ws
+    sign = np.where(fa[live] > 0, 1.0, -1.0)[:, None]
+    al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
+    kal = g.kappa[live] * al
+    c = sign[:, 0] * g.c[live, 0]
     lo, hi, xl = a[live], b[live], x[live]
     floor = _EPS * (hi - lo)
     # the state two steps back: a step that comes back to it (a cycle between two floats
@@ -212,9 +218,13 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     back = (np.full(live.size, np.nan),) * 3
     for k in range(iterations):
         x_k = xl
-        S, C = basis(w, xl)
-        f = sign * (c + np.sum(al * S + ga * C, axis=1))
-        df = sign * np.sum(al + ga * S - ka * al * C, axis=1)
+        tau = xl[:, None]
+        hx = half * tau
+        sw = np.sin(hx) / ws
+        S = np.where(rigid, tau, 2.0 * sw * np.cos(hx))
+        C = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
+        f = c + np.sum(al * S + ga * C, axis=1)
+        df = np.sum(al + ga * S - kal * C, axis=1)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
@@ -235,8 +245,9 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
             keep = ~done
             if not keep.any():
                 return x
-            live, w, al, ga, ka, c, sign = (live[keep], w[keep], al[keep], ga[keep], ka[keep],
-                                            c[keep], sign[keep])
+            live, rigid, ws, half, al, ga, kal, c = (
+                live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep], kal[keep],
+                c[keep])
             lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
             back = tuple(a[keep] for a in back)
     x[live] = xl
