@@ -334,12 +334,14 @@ def extremes(g: Sums, T, largest):
         if change.any():
             # (a zero of g' whose value cannot beat the peak so far need not be refined:
             # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
-            reach = (np.minimum(np.abs(vals[..., :-1]), np.abs(vals[..., 1:]))
-                     + w * (np.maximum(np.abs(a), np.abs(c)) + margin))
-            peak = np.where(largest[None, :], top[r],
-                            np.maximum(np.abs(top[r]), np.abs(bottom[r])))
-            beaten = reach < peak[:, :, None]
-            m, j, i = np.nonzero(change & ~beaten)
+            # (on the sign changes only)
+            m, j, i = np.nonzero(change)
+            am, cm = a[m, j, i], c[m, j, i]
+            reach = (np.minimum(np.abs(vals[m, j, i]), np.abs(vals[m, j, i + 1]))
+                     + w[m, 0, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[m, j, i]))
+            tm, bm = top[r[m], j], bottom[r[m], j]
+            peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
+            m, j, i = (x[~(reach < peak)] for x in (m, j, i))
             roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
             at = gl.take(m, j).each_at(roots[:, None])[:, 0]
             np.fmax.at(top, (r[m], j), at)
