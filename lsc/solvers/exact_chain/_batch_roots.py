@@ -131,13 +131,18 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
         tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
         tt[:, -1] = end
         vals = gg.at(tt)                                              # (m, F, steps + 1)
-        s0 = start[todo][:, :, None]
-        t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
-        left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
-                        vals[..., :-1])
-        right = np.where(t1 <= s0, np.inf, vals[..., 1:])
-        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         ok = search[todo][:, :, None]
+        s0 = start[todo][:, :, None]
+        if np.all(~ok[..., 0] | ((s0[..., 0] <= tt[:, :1]) & (s0[..., 0] < tt[:, 1:2]))):
+            # (every searched function starts at or before the window, and before its second
+            # sample: the values themselves; the others' are masked by ``ok``)
+            left, right = vals[..., :-1], vals[..., 1:]
+        else:
+            t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
+            left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
+                            vals[..., :-1])
+            right = np.where(t1 <= s0, np.inf, vals[..., 1:])
+        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
         hit = cross | unclear
