@@ -236,11 +236,14 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
         with np.errstate(all="ignore"):
             new = xl - f / df
         tol = 4 * _EPS * np.abs(xl) + floor
-        done = (f == 0) | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
+        zero = f == 0
+        done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
-        xl = np.where(f == 0, xl, new)
-        cycle = ~done & (xl == back[0]) & (lo == back[1]) & (hi == back[2])
+        xl = np.where(zero, xl, new)
+        cycle = xl == back[0]
+        if cycle.any():
+            cycle &= ~done & (lo == back[1]) & (hi == back[2])
         if cycle.any():
             x[live[cycle]] = (xl if (iterations - k - 1) % 2 == 0 else x_k)[cycle]
             done |= cycle
