@@ -115,8 +115,9 @@ def earliest(g: Sums, armed, start, limit):
 
 def _window(g, B, start, g_start, lo, step, limit, search, count):
     """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
-    search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's bound cannot clear is
-    sampled again :data:`WINDOW` times finer (up to :data:`LEVELS` times)."""
+    search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's
+    bound cannot clear is sampled again :data:`WINDOW` times finer (up to :data:`LEVELS`
+    times)."""
     n = g.c.shape[0]
     found_t = np.full(n, np.nan)
     found_j = np.full(n, -1)
@@ -195,8 +196,8 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
     method on the closed-form derivative, kept inside the bracket (a step that leaves it
-    bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero at the start). The
-    brackets still open are the only ones computed on."""
+    bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
+    at the start). The brackets still open are the only ones computed on."""
     fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
