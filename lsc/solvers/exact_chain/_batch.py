@@ -206,7 +206,9 @@ class _Batch:
         with np.errstate(all="ignore"):
             start = start_times(g, tol, omega, limit)
             start = np.where(armed, start, np.nan)
-            late_now = armed & (start > 0) & (g.each_at(np.where(start > 0, start, 0.0)) <= 0)
+            late_now = armed & (start > 0)
+            if late_now.any():
+                late_now &= g.each_at(np.where(start > 0, start, 0.0)) <= 0
             tau, which, undecided = earliest(g, armed, start, limit)
         keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
         tau = np.where(keep, tau, 0.0)
