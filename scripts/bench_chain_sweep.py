@@ -63,6 +63,9 @@ def main() -> None:
     print(f"batch: {a.n} random {a.vehicles}-car chains (e >= {a.e_min}) in {t_batch:.2f} s: "
           f"{a.n / t_batch:,.0f} members/s; failed {int((~ok).sum())}; handed to the single "
           f"solve {alone['members']} ({alone['time']:.2f} s of the total)")
+    t_vec = t_batch - alone["time"]
+    print(f"vectorised path alone: {a.n - alone['members']} members in {t_vec:.2f} s: "
+          f"{(a.n - alone['members']) / t_vec:,.0f} members/s")
     m = min(a.subset, a.n)
     worst, where, beyond = 0.0, None, set()
     start = time.perf_counter()

@@ -26,9 +26,14 @@ def basis(w, tau):
     rigid = w == 0
     ws = np.where(rigid, 1.0, w)
     h = (0.5 * ws) * tau
-    sw = np.sin(h) / ws
-    S = np.where(rigid, tau, 2.0 * sw * np.cos(h))
-    C = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
+    sw = np.sin(h)
+    sw /= ws
+    two_sw = 2.0 * sw
+    S = np.multiply(two_sw, np.cos(h, out=h), out=h)      # (in place: the same arithmetic)
+    C = np.multiply(two_sw, sw, out=two_sw)
+    if rigid.any():
+        np.copyto(S, tau, where=rigid)
+        np.copyto(C, 0.5 * tau * tau, where=rigid)
     return S, C
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, basis
+from ._batch_modes import Sums
 from ._roots import PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
@@ -115,8 +115,9 @@ def earliest(g: Sums, armed, start, limit):
 
 def _window(g, B, start, g_start, lo, step, limit, search, count):
     """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
-    search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's bound cannot clear is
-    sampled again :data:`WINDOW` times finer (up to :data:`LEVELS` times)."""
+    search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's
+    bound cannot clear is sampled again :data:`WINDOW` times finer (up to :data:`LEVELS`
+    times)."""
     n = g.c.shape[0]
     found_t = np.full(n, np.nan)
     found_j = np.full(n, -1)
@@ -131,13 +132,18 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
         tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
         tt[:, -1] = end
         vals = gg.at(tt)                                              # (m, F, steps + 1)
-        s0 = start[todo][:, :, None]
-        t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
-        left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
-                        vals[..., :-1])
-        right = np.where(t1 <= s0, np.inf, vals[..., 1:])
-        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         ok = search[todo][:, :, None]
+        s0 = start[todo][:, :, None]
+        if np.all(~ok[..., 0] | ((s0[..., 0] <= tt[:, :1]) & (s0[..., 0] < tt[:, 1:2]))):
+            # (every searched function starts at or before the window, and before its second
+            # sample: the values themselves; the others' are masked by ``ok``)
+            left, right = vals[..., :-1], vals[..., 1:]
+        else:
+            t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
+            left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
+                            vals[..., :-1])
+            right = np.where(t1 <= s0, np.inf, vals[..., 1:])
+        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
         hit = cross | unclear
@@ -189,38 +195,71 @@ F_BIG = np.iinfo(np.int64).max
 def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
-    method on the closed-form derivative, kept inside the bracket (a step that leaves it, or
-    does not halve it, bisects), until the step is a few ulps of the time (or of the bracket's
-    width, for a zero at the start)."""
-    sign = np.where(np.asarray(fa) > 0, 1.0, -1.0)
+    method on the closed-form derivative, kept inside the bracket (a step that leaves it
+    bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
+    at the start). The brackets still open are the only ones computed on."""
+    fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
-    floor = _EPS * (b - a)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
-    w = g.w[:, 0, :] if g.w.ndim == 3 else g.w
-    alpha, gamma, kappa = g.alpha[:, 0], g.gamma[:, 0], g.kappa
-    c = g.c[:, 0]
-    live = np.flatnonzero((np.asarray(fb) != 0) & (np.asarray(fa) != 0))
-    x[np.asarray(fa) == 0] = a[np.asarray(fa) == 0]
-    for _ in range(iterations):
-        if not live.size:
-            break
-        xl = x[live]
-        S, C = basis(w[live], xl)
-        al, ga = alpha[live], gamma[live]
-        f = sign[live] * (c[live] + np.sum(al * S + ga * C, axis=1))
-        df = sign[live] * np.sum(al + ga * S - kappa[live] * al * C, axis=1)
-        lo, hi = a[live], b[live]
+    x[fa == 0] = a[fa == 0]
+    live = np.flatnonzero((fb != 0) & (fa != 0))
+    if not live.size:
+        return x
+    # the open brackets' own arrays, compacted as brackets close
+    # (the function made positive at ``a`` by its sign, which rounds alike; the basis as
+    # :func:`._batch_modes.basis` computes it, its per-mode constants taken once)
+    w = (g.w[:, 0, :] if g.w.ndim == 3 else g.w)[live]
+    rigid = w == 0
+    ws = np.where(rigid, 1.0, w)
+    half = 0.5 * ws
+    sign = np.where(fa[live] > 0, 1.0, -1.0)[:, None]
+    al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
+    kal = g.kappa[live] * al
+    c = sign[:, 0] * g.c[live, 0]
+    lo, hi, xl = a[live], b[live], x[live]
+    floor = _EPS * (hi - lo)
+    # the state two steps back: a step that comes back to it (a cycle between two floats
+    # round the zero, where the function is rounding) repeats for good, so the state the last
+    # step would leave is known at once (by the parity of the steps left)
+    back = (np.full(live.size, np.nan),) * 3
+    for k in range(iterations):
+        x_k = xl
+        tau = xl[:, None]
+        hx = half * tau
+        sw = np.sin(hx) / ws
+        S = np.where(rigid, tau, 2.0 * sw * np.cos(hx))
+        C = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
+        f = c + np.sum(al * S + ga * C, axis=1)
+        df = np.sum(al + ga * S - kal * C, axis=1)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
+        state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
         with np.errstate(all="ignore"):
             new = xl - f / df
-        tol = 4 * _EPS * np.abs(xl) + floor[live]
-        done = (f == 0) | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
+        tol = 4 * _EPS * np.abs(xl) + floor
+        zero = f == 0
+        done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
-        a[live], b[live] = lo, hi
-        x[live] = np.where(f == 0, xl, new)
-        live = live[~done]
+        xl = np.where(zero, xl, new)
+        cycle = xl == back[0]
+        if cycle.any():
+            cycle &= ~done & (lo == back[1]) & (hi == back[2])
+        if cycle.any():
+            x[live[cycle]] = (xl if (iterations - k - 1) % 2 == 0 else x_k)[cycle]
+            done |= cycle
+        back = state
+        if done.any():
+            x[live[done]] = np.where(cycle, x[live], xl)[done]
+            keep = ~done
+            if not keep.any():
+                return x
+            live, rigid, ws, half, al, ga, kal, c = (
+                live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep], kal[keep],
+                c[keep])
+            lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
+            back = tuple(a[keep] for a in back)
+    x[live] = xl
     return x
 
 
@@ -278,16 +317,21 @@ def extremes(g: Sums, T, largest):
     bottom = np.full((b, F), np.inf)
     undecided = np.zeros(b, bool)
     late = []
-    # the intervals still to sample: member, start, end, step, level (0: the end is T)
+    # the intervals still to sample: member, start, end, step, level (0: the end is T), and
+    # the pass one window at a time would sample it on (its age)
     r = np.arange(b)
     lo, hi, h, level = np.zeros(b), np.asarray(T, float), step, np.zeros(b, int)
-    for _ in range(MAX_WINDOWS * 4):
+    age = np.zeros(b, int)
+    passes = MAX_WINDOWS * 4
+    for k in range(passes):
         if not r.size:
             break
-        end = np.where(level == 0, np.minimum(lo + WINDOW * h, hi), hi)
-        tt = np.minimum(lo[:, None] + h[:, None] * np.arange(WINDOW + 1), end[:, None])
-        tt[:, -1] = end
-        gl, dl, ddl = g.take(r), d.take(r), dd.take(r)
+        # the level-0 intervals take windows that double (1, 2, 4, ... up to 64 a pass),
+        # each placed as one window at a time would place it
+        first = level == 0
+        count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
+        tt, end = _windows(lo, hi, h, first, count)
+        gl, dl = g.take(r), d.take(r)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
         np.fmax.at(top, r, np.max(vals, axis=2))
@@ -299,12 +343,14 @@ def extremes(g: Sums, T, largest):
         if change.any():
             # (a zero of g' whose value cannot beat the peak so far need not be refined:
             # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
-            reach = (np.minimum(np.abs(vals[..., :-1]), np.abs(vals[..., 1:]))
-                     + w * (np.maximum(np.abs(a), np.abs(c)) + margin))
-            peak = np.where(largest[None, :], top[r],
-                            np.maximum(np.abs(top[r]), np.abs(bottom[r])))
-            beaten = reach < peak[:, :, None]
-            m, j, i = np.nonzero(change & ~beaten)
+            # (on the sign changes only)
+            m, j, i = np.nonzero(change)
+            am, cm = a[m, j, i], c[m, j, i]
+            reach = (np.minimum(np.abs(vals[m, j, i]), np.abs(vals[m, j, i + 1]))
+                     + w[m, 0, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[m, j, i]))
+            tm, bm = top[r[m], j], bottom[r[m], j]
+            peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
+            m, j, i = (x[~(reach < peak)] for x in (m, j, i))
             roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
             at = gl.take(m, j).each_at(roots[:, None])[:, 0]
             np.fmax.at(top, (r[m], j), at)
@@ -313,28 +359,50 @@ def extremes(g: Sums, T, largest):
         grazing = ~change & (low <= margin)
         new = []
         if grazing.any():
-            size = np.maximum(np.abs(top[r]), np.abs(bottom[r]))[:, :, None]
-            excess = w * (margin - low)
-            ddv = ddl.on(S, C)
+            q = np.flatnonzero(grazing.any(axis=(1, 2)))     # (the rows that have some)
+            rq, wq = r[q], w[q]
+            size = np.maximum(np.abs(top[rq]), np.abs(bottom[rq]))[:, :, None]
+            excess = wq * (margin[q] - low[q])
+            ddv = dd.take(rq).on(S[q], C[q])
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
-                                      > Bdd[r][:, :, None] * w ** 2 / 8.0)
-            bad = grazing & ~monotone & (excess > FLAT * size)                # (m, F, W)
-            deep = bad & (level >= PEAK_LEVELS)[:, None, None]
+                                      > Bdd[rq][:, :, None] * wq ** 2 / 8.0)
+            bad = grazing[q] & ~monotone & (excess > FLAT * size)             # (m, F, W)
+            deep = bad & (level[q] >= PEAK_LEVELS)[:, None, None]
             if deep.any():   # (judged at the end, against the function's size on [0, T])
                 m, j, i = np.nonzero(deep)
-                late.append((r[m], j, excess[m, j, i]))
+                late.append((rq[m], j, excess[m, j, i]))
             m, i = np.nonzero((bad & ~deep).any(axis=1))
+            m = q[m]
             new.append((r[m], tt[m, i], tt[m, i + 1], (tt[m, i + 1] - tt[m, i]) / WINDOW,
-                        level[m] + 1))
-        go = (level == 0) & (end < hi)
-        new.append((r[go], end[go], hi[go], h[go], level[go]))
-        r, lo, hi, h, level = (np.concatenate(x) for x in zip(*new))
-        keep = ~undecided[r]
-        r, lo, hi, h, level = r[keep], lo[keep], hi[keep], h[keep], level[keep]
+                        level[m] + 1, age[m] + i // WINDOW + 1))
+        go = first & (end < hi)
+        new.append((r[go], end[go], hi[go], h[go], level[go], age[go] + count))
+        r, lo, hi, h, level, age = (np.concatenate(x) for x in zip(*new))
+        late_pass = age >= passes      # (beyond the passes one window at a time would take)
+        undecided[r[late_pass]] = True
+        keep = ~late_pass
+        r, lo, hi, h, level, age = r[keep], lo[keep], hi[keep], h[keep], level[keep], age[keep]
     undecided[r] = True
     size = np.maximum(np.abs(top), np.abs(bottom))
     for m, j, excess in late:
         undecided[m[excess > FLAT * size[m, j]]] = True
     peaks = np.where(largest[None, :] | (np.abs(top) >= np.abs(bottom)), top, bottom)
     return peaks, undecided
+
+
+def _windows(lo, hi, h, first, count):
+    """Sample times (m, count WINDOW + 1) of the intervals ``[lo, hi]`` (m,) sampled every
+    ``h``: where ``first``, ``count`` windows of :data:`WINDOW` steps one after the other, each
+    ending at ``min(its start + WINDOW h, hi)`` (the last one's end returned (m,)); elsewhere
+    one window ending at ``hi``; the rest of a row is its end repeated (intervals of width 0)."""
+    tt = np.empty((lo.size, count * WINDOW + 1))
+    steps = h[:, None] * np.arange(WINDOW + 1)
+    start = lo
+    for j in range(count):
+        end = np.where(first, np.minimum(start + WINDOW * h, hi), hi)
+        block = tt[:, j * WINDOW:(j + 1) * WINDOW + 1]
+        np.minimum(start[:, None] + steps, end[:, None], out=block)
+        block[:, -1] = end
+        start = end
+    return tt, end
