@@ -63,10 +63,12 @@ class _ScalarTransitions:
         k, w = self._model.events[i]
         if k >= self._model.K:  # an effect (brake, bumper failure): the model's own, on NumPy
             return self._model.apply_event(i, t, y, disc, p)
-        D, Dd = self._model.deformation(np.asarray(y, float), p)
+        # contact k's deformation and closing rate, as HybridModel.deformation (on floats)
+        N = self._model.N
+        D = float(y[k]) - float(y[k + 1]) - float(p["gap"][k])
+        Dd = float(y[N + k]) - float(y[N + k + 1])
         new = list(disc)
-        new[k] = self._model.laws[k].on_event(w, float(D[k]), float(Dd[k]), disc[k],
-                                              self._pp[k], _PY)
+        new[k] = self._model.laws[k].on_event(w, D, Dd, disc[k], self._pp[k], _PY)
         return new
 
 
