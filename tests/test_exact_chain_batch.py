@@ -143,10 +143,10 @@ def test_the_vectorised_path_solves_most_members_itself(monkeypatch):
     """Members are handed to the single solve only where the vectorised search cannot decide
     (or contacts chatter): on random 3-car chains, a small minority."""
     alone = []
-    original = _batch._solve_member
-    monkeypatch.setattr(_batch, "_solve_member",
-                        lambda model, values, j, *a: alone.append(j) or original(model, values,
-                                                                                  j, *a))
+    original = _batch.solve_alone
+    monkeypatch.setattr(_batch, "solve_alone",
+                        lambda solve, model, values, members, *a, **kw:
+                        alone.extend(members) or original(solve, model, values, members, *a, **kw))
     scene, values = random_chains(3, 60, 7, e_min=0.05)
     out = exact_chain.solve_batch(HybridModel(scene), values)
     assert len(alone) <= 6, alone

@@ -24,7 +24,8 @@ import numpy as np
 
 from ..errors import SceneError
 
-__all__ = ["Option", "OPTIONS", "CONTROLS", "MAX_SAMPLES", "Backend", "check_option"]
+__all__ = ["Option", "OPTIONS", "CONTROLS", "MAX_SAMPLES", "Backend", "check_option",
+           "solve_alone"]
 
 #: Most points in a Result's sampled series (``n_samples``): a million rows of every series.
 MAX_SAMPLES = 1_000_000
@@ -260,3 +261,29 @@ class Backend:
         self.check(model, batch=True)
         self.check_options(options, batch=True)
         return self.implementation().solve_batch(model, values, progress=progress, **options)
+
+
+def solve_alone(solve, model, values: dict, members, metrics: dict, status, *, progress=None,
+                **options) -> None:
+    """A batch path's members ``members`` (indices) solved one by one by the backend's single
+    ``solve(model, n_samples=2, **options)``, as :func:`lsc.solve` would solve them: each one's
+    metrics written into ``metrics`` (arrays with the member axis first) and ``"ok"`` into
+    ``status``, or NaN metrics and ``"SimulationError: <the single solve's message>"``;
+    ``progress(1)`` after each."""
+    from ..errors import SimulationError
+    from ..model import HybridModel
+
+    for j in members:
+        member = {path: float(v[j]) for path, v in values.items()}
+        try:
+            r = solve(HybridModel(model.scene.with_values(member)), n_samples=2, **options)
+        except SimulationError as err:
+            for arr in metrics.values():
+                arr[j] = np.nan
+            status[j] = f"SimulationError: {err}"
+        else:
+            for name, arr in metrics.items():
+                arr[j] = getattr(r, name)
+            status[j] = "ok"
+        if progress is not None:
+            progress(1)

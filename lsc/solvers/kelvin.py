@@ -37,7 +37,7 @@ import numpy as np
 from .. import metrics as _metrics
 from ..errors import SceneError, SimulationError
 from ..result import Event, Result
-from .base import describe
+from .base import describe, solve_alone
 
 __all__ = ["FEATURES", "why_not", "applies", "parameters", "crush_phase", "unit_motion",
            "metrics", "solve", "batch_parameters", "solve_batch"]
@@ -324,25 +324,7 @@ def solve_batch(model, values: dict, *, progress=None) -> dict:
     for name, value in out.items():
         if name != "failure_time":   # (NaN there: never failed)
             bad |= ~np.all(np.isfinite(value.reshape(n, -1)), axis=1)
-    for j in np.flatnonzero(bad):
-        status[j] = _solve_member(model, values, j, out)
+    solve_alone(solve, model, values, np.flatnonzero(bad), out, status)
     if progress is not None:
         progress(n)
     return {"metrics": out, "status": status}
-
-
-def _solve_member(model, values: dict, j: int, out: dict) -> str:
-    """Member ``j`` solved alone (as ``lsc.solve`` would): its metrics into ``out`` and
-    ``"ok"``, or NaN and the error it raises (``"SimulationError: ..."``)."""
-    from ..model import HybridModel
-
-    try:
-        r = solve(HybridModel(model.scene.with_values(
-            {path: float(v[j]) for path, v in values.items()})), n_samples=2)
-    except SimulationError as exc:
-        for name in out:
-            out[name][j] = np.nan
-        return f"SimulationError: {exc}"
-    for name in out:
-        out[name][j] = getattr(r, name)
-    return "ok"

@@ -13,14 +13,14 @@ import numpy as np
 
 from ...contact import BIG, MODE_OPEN, STATUS, HysteresisLaw
 from ...curves import Curve
-from ...errors import SceneError, SimulationError
-from ...model import HybridModel
+from ...errors import SceneError
 from ...result import METRICS
 from ...scene import Hysteresis, Restitution, UnloadingStiffness, UnloadingTable
 from ... import metrics as _metrics
 from ... import parameters
 from .arrays import _batch_inputs, arrays_of_model
 from .kernels import _end_force, _next_event, _setup, _state
+from ..base import solve_alone
 from .single import solve as solve_one
 
 #: Status codes of :func:`solve_arrays`: the law's :data:`~lsc.contact.STATUS` and two of its own.
@@ -366,10 +366,8 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
     good = out["status"] == 0 if n else np.zeros(0, bool)
     if progress is not None and good.any():
         progress(int(good.sum()))
-    for j in np.flatnonzero(~good):
-        status[j] = _solve_member(model, values, j, metrics, max_events)
-        if progress is not None:
-            progress(1)
+    solve_alone(solve_one, model, values, np.flatnonzero(~good), metrics, status,
+                progress=progress, max_events=max_events)
     return {"metrics": metrics, "status": status}
 
 
@@ -378,19 +376,3 @@ def _member_axis(arr, n: int, per: str, model) -> np.ndarray:
     members: ``arr`` is None)."""
     shape = {"scene": (n,), "vehicle": (n, model.N), "contact": (n, model.K)}[per]
     return np.full(shape, np.nan) if arr is None else np.asarray(arr, float).reshape(shape)
-
-
-def _solve_member(model, values: dict, j: int, metrics: dict, max_events: int) -> str:
-    """Member ``j`` solved alone (its metrics written into ``metrics``): ``"ok"`` or
-    ``"SimulationError: <the single solve's message>"`` (NaN metrics)."""
-    member = {path: float(v[j]) for path, v in values.items()}
-    try:
-        r = solve_one(HybridModel(model.scene.with_values(member)), n_samples=2,
-                      max_events=max_events)
-    except SimulationError as err:
-        for arr in metrics.values():
-            arr[j] = np.nan
-        return f"SimulationError: {err}"
-    for name, arr in metrics.items():
-        arr[j] = getattr(r, name)
-    return "ok"

@@ -24,10 +24,11 @@ import numpy as np
 from ... import metrics as _metrics
 from ... import parameters
 from ...contact import MODE_OPEN
-from ...errors import SceneError, SimulationError
+from ...errors import SceneError
 from ...impacts import TIME_RESOLUTION
-from ...model import OVER_TOL, HybridModel
+from ...model import OVER_TOL
 from ...result import METRICS
+from ..base import solve_alone
 from ..exact.batch import _Rows
 from ._batch_modes import BatchMotion, Sums
 from ._batch_roots import earliest, extremes, start_times
@@ -71,27 +72,9 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
     status = np.full(n, "ok", dtype=object)
     if progress is not None and np.any(code == DONE):
         progress(int(np.sum(code == DONE)))
-    for j in np.flatnonzero(code != DONE):
-        status[j] = _solve_member(model, values, j, metrics, max_events)
-        if progress is not None:
-            progress(1)
+    solve_alone(solve_one, model, values, np.flatnonzero(code != DONE), metrics, status,
+                progress=progress, max_events=max_events)
     return {"metrics": metrics, "status": status}
-
-
-def _solve_member(model, values: dict, j: int, metrics: dict, max_events: int) -> str:
-    """Member ``j`` solved alone (its metrics written into ``metrics``): ``"ok"`` or
-    ``"SimulationError: <the single solve's message>"`` (NaN metrics)."""
-    member = {path: float(v[j]) for path, v in values.items()}
-    try:
-        r = solve_one(HybridModel(model.scene.with_values(member)), n_samples=2,
-                      max_events=max_events)
-    except SimulationError as err:
-        for arr in metrics.values():
-            arr[j] = np.nan
-        return f"SimulationError: {err}"
-    for name, arr in metrics.items():
-        arr[j] = getattr(r, name)
-    return "ok"
 
 
 def _contact_params(c: dict) -> dict:
@@ -123,8 +106,8 @@ class _Batch:
 
     def __init__(self, model, p: dict, max_events: int):
         self.model, self.max_events = model, max_events
-        self.N, self.K = N, K = model.N, model.K
-        self.C = deformation_map(N)
+        self.N, self.K = model.N, model.K
+        self.C = deformation_map(self.N)
         self.laws = model.laws
         n = p["m"].shape[0]
         self.n = n
