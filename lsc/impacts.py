@@ -13,6 +13,8 @@ rows and from the peaks the backend located between them. Units: the scene's (se
 from __future__ import annotations
 
 import bisect
+import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -190,12 +192,14 @@ def check_resolved(t0: float, t1: float, what: str) -> None:
     """Raise :class:`SimulationError` when the absolute times ``t0 < t1`` [s] cannot resolve
     the interval between them to :data:`TIME_RESOLUTION` (the result could not represent it)."""
     span = t1 - t0
-    if not np.isfinite(span):
+    if not math.isfinite(span):
         raise SimulationError(
             f"{what} has non-finite times ({t0:.6g} s to {t1:.6g} s): the scene's magnitudes are "
             "beyond what the computation can represent (check the speeds, masses, gaps and "
             "stiffnesses for absurd values)")
-    ulp = float(np.spacing(max(abs(t0), abs(t1))))
+    # (np.spacing's value: the gap to the next float up; beyond the largest, infinite)
+    top = max(abs(t0), abs(t1))
+    ulp = math.ulp(top) if top < sys.float_info.max else math.inf
     if not span * TIME_RESOLUTION >= ulp:
         raise SimulationError(
             f"{what} starts at t = {t0:.6g} s and lasts {span:.3g} s: at that time the clock "

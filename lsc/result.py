@@ -10,6 +10,7 @@ path shares); a solve whose caller reads only metrics never samples the series.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from functools import cached_property
 from typing import Callable
@@ -181,7 +182,9 @@ class Result:
                                      float(rows["t"][-1]),
                                      last_speeds(rows, self.events, self.v_final).tolist())
         for name in (*METRICS, "contact_time"):
-            setattr(self, name, out[name] if np.ndim(out[name]) else float(out[name]))
+            value = out[name]
+            setattr(self, name, value if isinstance(value, np.ndarray) and value.ndim
+                    else float(value))
         imps = self.impacts
         self.separation_time = np.array(
             [max((m.t_end for m in imps if m.contact == k and m.separated), default=np.nan)
@@ -448,8 +451,10 @@ def _all_finite(r: Result) -> bool:
     """Whether every metric and total is finite, ``failure_time`` NaN or finite (the common
     case, told with one NumPy call; the documented NaN otherwise is checked one by one)."""
     values = [getattr(r, name) for name in (*METRICS, *TOTALS) if name != "failure_time"]
-    flat = np.concatenate([v.ravel() if isinstance(v, np.ndarray) else (v,) for v in values])
-    return bool(np.isfinite(flat).all()) and not bool(np.isinf(r.failure_time).any())
+    # (on Python floats: a few numbers per metric, where NumPy's cost per call dominates)
+    return (all(math.isfinite(x) for v in values
+                for x in (v.ravel().tolist() if isinstance(v, np.ndarray) else (v,)))
+            and not any(map(math.isinf, r.failure_time.ravel().tolist())))
 
 
 def _not_applicable(r: Result, name: str, shape) -> np.ndarray:
