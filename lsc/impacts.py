@@ -128,13 +128,12 @@ def _raised(force: float, acc: tuple, span_force, span_acc) -> tuple[float, tupl
             tuple(float(b) if abs(b) > abs(a) else a for a, b in zip(acc, span_acc)))
 
 
-def last_speeds(rows, events, v_post) -> np.ndarray:
+def last_speeds(rows, impacts, v_post) -> np.ndarray:
     """The speeds (N,) at the end of the rows, where an impact still open then ends (as
-    :func:`find_impacts` takes them): ``v_post`` if the last separation is then."""
+    :func:`find_impacts`, which found ``impacts``, takes them): ``v_post`` if the last
+    separation is then."""
     t = rows["t"]
-    K = rows["deformation"].shape[1]
-    found = episodes(events, K, float(t[-1]))
-    if float(t[-1]) == max((e[2] for e in found if e[3]), default=np.nan):
+    if float(t[-1]) == max((m.t_end for m in impacts if m.separated), default=np.nan):
         return np.asarray(v_post, float)
     return rows["v"][min(int(np.searchsorted(t, t[-1], side="left")), t.size - 1)]
 

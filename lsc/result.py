@@ -180,7 +180,7 @@ class Result:
         first = _first_record(self.impacts, len(contacts), v_max)
         out = _metrics.scene_metrics(first, records, self.v_final, self.scene.g, failure_time,
                                      float(rows["t"][-1]),
-                                     last_speeds(rows, self.events, self.v_final).tolist())
+                                     last_speeds(rows, self.impacts, self.v_final).tolist())
         for name in (*METRICS, "contact_time"):
             value = out[name]
             setattr(self, name, value if isinstance(value, np.ndarray) and value.ndim

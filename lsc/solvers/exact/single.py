@@ -253,8 +253,7 @@ def is_over(model, y, disc, t=0.0, horizon=None) -> bool:
 def crash_horizon(model) -> float:
     """:meth:`~lsc.model.HybridModel.horizon` of the scene's own parameters [s]."""
     p = model.params
-    v0, m = p["v0"].tolist(), p["m"].tolist()
-    v = max(max(max(abs(x) for x in v0), max(abs(b - a) for a, b in zip(v0, v0[1:]))), 1e-300)
+    v0, m, v = p["v0"].tolist(), p["m"].tolist(), model.v_scale   # (speed_scale())
     w = [a - b for a, b in zip(v0, v0[1:])]
     w_min = min(x if x > 1e-12 * v else math.inf for x in w)
     w_min = w_min if math.isfinite(w_min) else v
