@@ -15,7 +15,7 @@ from lsc.model import HybridModel
 from lsc.scene import (Contact, Hysteresis, Restitution, Scene, UnloadingStiffness,
                        UnloadingTable, Vehicle)
 from lsc.solvers import closed_form, exact, pick, scipy_ode
-from helpers import two_cars
+from helpers import chain, two_cars
 
 # (what each metric is compared against: a scale of its own kind)
 SCALES = {"delta_v": "v", "v_final": "v", "peak_acceleration": "a", "duration": "t",
@@ -889,3 +889,12 @@ def test_the_initial_state_and_event_rows_on_floats_are_the_models(monkeypatch):
         for key in arrays:
             same(floats[key], arrays[key], key)
     assert solved >= 30
+    # (the exact chain backend starts from the same initial state on floats)
+    for gaps in ((0.0, 0.0), (0.1, 0.0), (0.0, 0.2)):
+        d = chain([1500, 1200, 1800], [6.0, 1.0, -0.5],
+                  [{"loading": {"stiffness": 2e6}, "unloading": {"restitution": 0.3},
+                    "gap": g} for g in gaps])
+        model = HybridModel(lsc.Scene.load(d))
+        y0, disc = single._ScalarTransitions(model).initial()
+        same(y0, model.initial()[0], "y0")
+        assert repr(disc) == repr(model.to_python(model.initial()[1]))
