@@ -94,6 +94,12 @@ def _rows(t: list, t0: float, t1: float) -> range:
     return range(i0, min(i1, len(t) - 1) + 1)
 
 
+def _largest(a: list) -> float:
+    """``max(a)`` as NumPy's ``max`` gives it (of equal zeros, the last one's sign)."""
+    out = max(a)
+    return float(np.max(a)) if out == 0.0 else out
+
+
 def _signed_peak(a: list) -> float:
     """The value of ``a`` of largest magnitude, with its sign (the first such; 0 if empty)."""
     return max(a, key=abs) if a else 0.0
@@ -166,7 +172,7 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
         pair = (k, k + 1)
         vs = tuple(speeds[i] if t0 == 0.0 else v[span[0]][i] for i in pair)
         ve = tuple(v_post[i] if t1 == t_post else v[span[-1]][i] for i in pair)
-        force_k, peak_a = _raised(max(force[j][k] for j in span),
+        force_k, peak_a = _raised(_largest([force[j][k] for j in span]),
                                   tuple(_signed_peak([a[j][i] for j in span]) for i in pair),
                                   *_peaks_between(spans, t0, t1, k, pair))
         closing, separating = vs[0] - vs[1], ve[1] - ve[0]

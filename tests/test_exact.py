@@ -898,3 +898,21 @@ def test_the_initial_state_and_event_rows_on_floats_are_the_models(monkeypatch):
         y0, disc = single._ScalarTransitions(model).initial()
         same(y0, model.initial()[0], "y0")
         assert repr(disc) == repr(model.to_python(model.initial()[1]))
+
+
+def test_the_event_rows_clamp_picks_as_numpy_does_on_ties():
+    """The rows' force on floats clamps the deformation to the segment as NumPy's ``maximum``
+    and ``minimum`` do, down to which of two equal zeros it keeps (the force's sign then)."""
+    from lsc.solvers.exact import single
+    from lsc.solvers.exact.kernels import _end_force
+
+    model = HybridModel(lsc.Scene.load(two_cars(1500, 1200, 4.0, 0.0, {"stiffness": 2e6},
+                                                {"restitution": 0.4})))
+    law, st = model.laws[0], model.to_python(model.initial()[1])[0]
+    for D, lo, hi in itertools.product((-0.0, 0.0, 0.5), (-0.0, 0.0), (-0.0, 0.0, 1.0)):
+        if lo > hi:
+            continue
+        seg = dict(st, lo=lo, hi=hi, fa=-0.0, s=1.0, da=0.0)
+        want = _end_force(np, law, np.array([D]), seg)[0]
+        got = _end_force(single._TIES, law, D, seg)
+        assert repr(float(got)) == repr(float(want)), (D, lo, hi)

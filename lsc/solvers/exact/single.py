@@ -16,7 +16,8 @@ import numpy as np
 from ...model import OVER_TOL
 from ..segments import Step, build_result, run_segments
 from .braking import _stop_time, _turning_deformations
-from .kernels import _PY, _end_force, _force_rise_time, _next_event, _setup, _state
+from .kernels import (_PY, _end_force, _force_rise_time, _next_event, _PyMath, _setup,
+                      _state)
 
 
 class _ScalarTransitions:
@@ -192,6 +193,18 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                         rows=_event_rows(model, ends) if ends else None)
 
 
+class _NumPyTies(_PyMath):
+    """:data:`.kernels._PY` with NumPy's ``maximum`` and ``minimum`` of two finite floats: of
+    two equal values (``-0.0`` and ``0.0``) the second, where Python's ``max`` keeps the
+    first."""
+
+    maximum = staticmethod(lambda a, b: a if a > b else b)
+    minimum = staticmethod(lambda a, b: a if a < b else b)
+
+
+_TIES = _NumPyTies()
+
+
 def _event_rows(model, ends, floats: bool = True) -> dict:
     """The rows at the event points (``t, x, v, a, deformation, force``, as
     :func:`~lsc.solvers.segments.event_rows` gives them): both ends of every segment, at the
@@ -211,7 +224,7 @@ def _event_rows(model, ends, floats: bool = True) -> dict:
                 d = [yy[k] - yy[k + 1] - gap[k] for k in range(K)]
                 y.append(yy)
                 D.append(d)
-                F.append([_end_force(_PY, law, d[k], st[k]) for k, law in enumerate(laws)])
+                F.append([_end_force(_TIES, law, d[k], st[k]) for k, law in enumerate(laws)])
         y, D, F = np.array(y, float).T, np.array(D, float).T, np.array(F, float).T
         a = model.net_forces(F) / model.params["m"][:, None]
     else:
