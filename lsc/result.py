@@ -449,7 +449,7 @@ def _check_finite(r: Result) -> None:
 
 def _all_finite(r: Result) -> bool:
     """Whether every metric and total is finite, ``failure_time`` NaN or finite (the common
-    case, told with one NumPy call; the documented NaN otherwise is checked one by one)."""
+    case, told in one pass; the documented NaN otherwise is checked one by one)."""
     values = [getattr(r, name) for name in (*METRICS, *TOTALS) if name != "failure_time"]
     # (on Python floats: a few numbers per metric, where NumPy's cost per call dominates)
     return (all(math.isfinite(x) for v in values

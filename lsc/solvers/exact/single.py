@@ -54,7 +54,8 @@ class _ScalarTransitions:
                 y0, disc = model.initial()
             else:   # the laws' own init, on Python floats (the same expressions)
                 p = model.params
-                y0 = np.concatenate([np.zeros(model.N), np.asarray(p["v0"], float)])
+                y0 = np.concatenate([np.zeros(model.N), np.asarray(p["v0"], float),
+                                     np.zeros(len(model.work))])
                 x, v = y0[: model.N].tolist(), p["v0"].tolist()
                 gap, m = p["gap"].tolist(), p["m"].tolist()
                 mu = [a * b / (a + b) for a, b in zip(m, m[1:])]   # (as model._mu)
@@ -247,7 +248,8 @@ def _event_rows(model, ends, floats: bool = True) -> dict:
 # ============================================================================ on Python floats
 # One scene's numbers as the model gives them (its array code on NumPy), computed here on Python
 # floats: the same expressions, operation for operation (so the same numbers, bit for bit, as
-# tests/test_exact_scalars.py checks), without NumPy's cost per call on arrays of a few values.
+# tests/test_model_scales.py and tests/test_exact.py check), without NumPy's cost per call on
+# arrays of a few values.
 def is_over(model, y, disc, t=0.0, horizon=None) -> bool:
     """:meth:`~lsc.model.HybridModel.is_over` of one scene's state (``y`` (n,), ``disc`` on
     Python scalars, ``horizon`` [s] default :attr:`~lsc.model.HybridModel.crash_horizon`)."""
