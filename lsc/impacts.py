@@ -12,12 +12,15 @@ rows and from the peaks the backend located between them. Units: the scene's (se
 
 from __future__ import annotations
 
+import bisect
+import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import SimulationError
-from .metrics import PUSHED, in_g, restitution
+from .metrics import PUSHED, _root_ratio, restitution_of
 
 __all__ = ["Impact", "find_impacts", "check_resolved", "PUSHED"]
 
@@ -83,16 +86,23 @@ def episodes(events, K: int, t_last: float) -> list[tuple[int, float, float, boo
     return sorted(found, key=lambda e: (e[1], e[0]))
 
 
-def _rows(t: np.ndarray, t0: float, t1: float) -> slice:
-    """The series rows of ``[t0, t1]``: at an event time that is sampled twice (end of one
-    segment, start of the next) the row of the segment inside the interval."""
-    i0 = max(int(np.searchsorted(t, t0, side="right")) - 1, 0)
-    i1 = max(int(np.searchsorted(t, t1, side="left")), i0)
-    return slice(i0, min(i1, t.size - 1) + 1)
+def _rows(t: list, t0: float, t1: float) -> range:
+    """The series rows of ``[t0, t1]`` (``t`` sorted, a list): at an event time that is sampled
+    twice (end of one segment, start of the next) the row of the segment inside the interval."""
+    i0 = max(bisect.bisect_right(t, t0) - 1, 0)
+    i1 = max(bisect.bisect_left(t, t1), i0)
+    return range(i0, min(i1, len(t) - 1) + 1)
 
 
-def _signed_peak(a: np.ndarray) -> float:
-    return float(a[np.argmax(np.abs(a))]) if a.size else 0.0
+def _largest(a: list) -> float:
+    """``max(a)`` as NumPy's ``max`` gives it (of equal zeros, the last one's sign)."""
+    out = max(a)
+    return float(np.max(a)) if out == 0.0 else out
+
+
+def _signed_peak(a: list) -> float:
+    """The value of ``a`` of largest magnitude, with its sign (the first such; 0 if empty)."""
+    return max(a, key=abs) if a else 0.0
 
 
 def _peaks_between(spans, t0: float, t1: float, contact: int, pair: tuple):
@@ -124,13 +134,12 @@ def _raised(force: float, acc: tuple, span_force, span_acc) -> tuple[float, tupl
             tuple(float(b) if abs(b) > abs(a) else a for a, b in zip(acc, span_acc)))
 
 
-def last_speeds(rows, events, v_post) -> np.ndarray:
+def last_speeds(rows, impacts, v_post) -> np.ndarray:
     """The speeds (N,) at the end of the rows, where an impact still open then ends (as
-    :func:`find_impacts` takes them): ``v_post`` if the last separation is then."""
+    :func:`find_impacts`, which found ``impacts``, takes them): ``v_post`` if the last
+    separation is then."""
     t = rows["t"]
-    K = rows["deformation"].shape[1]
-    found = episodes(events, K, float(t[-1]))
-    if float(t[-1]) == max((e[2] for e in found if e[3]), default=np.nan):
+    if float(t[-1]) == max((m.t_end for m in impacts if m.separated), default=np.nan):
         return np.asarray(v_post, float)
     return rows["v"][min(int(np.searchsorted(t, t[-1], side="left")), t.size - 1)]
 
@@ -147,39 +156,39 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
     (:data:`PUSHED`); ``spans``: peaks a backend located between the rows, ``(t0, t1, force
     (K,), acceleration (N,) signed)`` and optionally ``deformation (K,)``, each counted in the
     impacts that hold ``[t0, t1]``."""
-    t, v, a = rows["t"], rows["v"], rows["a"]
+    # (on Python floats: a few rows per impact, where NumPy's cost per call dominates; the rows
+    # are finite, Result.build checked them)
+    t, v, a, force = (rows[key].tolist() for key in ("t", "v", "a", "force"))
     K = rows["deformation"].shape[1]
-    found = episodes(events, K, float(t[-1]))
+    found = episodes(events, K, t[-1])
     t_post = max((e[2] for e in found if e[3]), default=np.nan)
     count = [0] * K
     for e in found:
         count[e[0]] += 1
+    v_post, speeds = np.asarray(v_post, float).tolist(), np.asarray(speeds, float).tolist()
     impacts = []
     for k, t0, t1, separated in found:
         span = _rows(t, t0, t1)
         pair = (k, k + 1)
-        vs = v[span.start, pair]
-        if t0 == 0.0:
-            vs = np.asarray(speeds, float)[list(pair)]
-        ve = v_post[list(pair)] if t1 == t_post else v[span.stop - 1, pair]
-        force, peak_a = _raised(float(rows["force"][span, k].max()),
-                                tuple(_signed_peak(a[span, i]) for i in pair),
-                                *_peaks_between(spans, t0, t1, k, pair))
-        closing, separating = float(vs[0] - vs[1]), float(ve[1] - ve[0])
+        vs = tuple(speeds[i] if t0 == 0.0 else v[span[0]][i] for i in pair)
+        ve = tuple(v_post[i] if t1 == t_post else v[span[-1]][i] for i in pair)
+        force_k, peak_a = _raised(_largest([force[j][k] for j in span]),
+                                  tuple(_signed_peak([a[j][i] for j in span]) for i in pair),
+                                  *_peaks_between(spans, t0, t1, k, pair))
+        closing, separating = vs[0] - vs[1], ve[1] - ve[0]
         rec, alone = records[k], count[k] == 1
-        e_energy = float(np.sqrt(rec["er"] / rec["ec"])) if alone and rec["ec"] > 0 else None
+        e_energy = _root_ratio(rec["er"], rec["ec"]) if alone and rec["ec"] > 0 else None
         # (the record's max deformation is exact; for a contact that closes again, the rows
         # hold it at its events, the spans where it turns inside a segment)
-        crush = float(rec["dmax"]) if alone else max(float(np.max(rows["deformation"][span, k])),
-                                                     _crush_between(spans, t0, t1, k))
+        crush = float(rec["dmax"]) if alone else max(
+            float(np.max(rows["deformation"][span.start:span.stop, k])),
+            _crush_between(spans, t0, t1, k))
         impacts.append(Impact(
             contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
-            closing_speed=closing, separation_speed=separating,
-            v_start=tuple(map(float, vs)), v_end=tuple(map(float, ve)),
-            delta_v=tuple(map(float, ve - vs)), peak_acceleration=peak_a,
-            peak_acceleration_g=tuple(map(float, in_g(np.array(peak_a), g))),
-            peak_force=force, max_deformation=crush,
-            restitution=float(restitution(vs, ve, v_max)),
+            closing_speed=closing, separation_speed=separating, v_start=vs, v_end=ve,
+            delta_v=(ve[0] - vs[0], ve[1] - vs[1]), peak_acceleration=peak_a,
+            peak_acceleration_g=tuple(x / g for x in peak_a), peak_force=force_k,
+            max_deformation=crush, restitution=restitution_of(vs, ve, v_max),
             restitution_energy=e_energy, struck=closing > PUSHED * v_max))
     return tuple(impacts)
 
@@ -188,12 +197,14 @@ def check_resolved(t0: float, t1: float, what: str) -> None:
     """Raise :class:`SimulationError` when the absolute times ``t0 < t1`` [s] cannot resolve
     the interval between them to :data:`TIME_RESOLUTION` (the result could not represent it)."""
     span = t1 - t0
-    if not np.isfinite(span):
+    if not math.isfinite(span):
         raise SimulationError(
             f"{what} has non-finite times ({t0:.6g} s to {t1:.6g} s): the scene's magnitudes are "
             "beyond what the computation can represent (check the speeds, masses, gaps and "
             "stiffnesses for absurd values)")
-    ulp = float(np.spacing(max(abs(t0), abs(t1))))
+    # (np.spacing's value: the gap to the next float up; beyond the largest, infinite)
+    top = max(abs(t0), abs(t1))
+    ulp = math.ulp(top) if top < sys.float_info.max else math.inf
     if not span * TIME_RESOLUTION >= ulp:
         raise SimulationError(
             f"{what} starts at t = {t0:.6g} s and lasts {span:.3g} s: at that time the clock "

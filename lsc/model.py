@@ -88,9 +88,7 @@ class HybridModel:
         self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
         self._work_idx = np.asarray(self.work, dtype=int)
         # incidence (N, K): contact k pushes vehicle k back and vehicle k+1 forward
-        self._incidence = np.zeros((N, self.K))
-        self._incidence[np.arange(self.K), np.arange(self.K)] = -1.0
-        self._incidence[np.arange(self.K) + 1, np.arange(self.K)] = 1.0
+        self._incidence = np.eye(N, self.K, -1) - np.eye(N, self.K)
         self.n_state = 2 * N + len(self.work)
         self.params = {
             "m": m,
@@ -105,7 +103,8 @@ class HybridModel:
         #: the unit of each event function: "length", "velocity" or "force"
         self.event_units = tuple(_event_unit(self.parts[j], self.parts[j].event_kinds[w])
                                  for j, w in self.events)
-        self.v_scale = float(self.speed_scale())
+        v = scene.speeds.tolist()   # (speed_scale(), on Python floats: the same number)
+        self.v_scale = max(max(map(abs, v)), max(abs(b - a) for a, b in zip(v, v[1:])), 1e-300)
 
     def features(self) -> frozenset[str]:
         """Everything this scene uses that a backend must solve (its contract,

@@ -10,6 +10,7 @@ path shares); a solve whose caller reads only metrics never samples the series.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from functools import cached_property
 from typing import Callable
@@ -175,13 +176,15 @@ class Result:
     def _set_metrics(self, rows, contacts, failure_time, v_max) -> None:
         """The metrics (:func:`lsc.metrics.metrics`) from the first impact of each contact;
         the totals over the run."""
-        records = {key: np.array([c[key] for c in contacts], float)
-                   for key in ("dmax", "dperm", "ec", "er")}
+        records = {key: [float(c[key]) for c in contacts] for key in ("dmax", "dperm", "ec", "er")}
         first = _first_record(self.impacts, len(contacts), v_max)
-        out = _metrics.metrics(first, records, self.v_final, self.scene.g, failure_time,
-                               float(rows["t"][-1]), last_speeds(rows, self.events, self.v_final))
+        out = _metrics.scene_metrics(first, records, self.v_final, self.scene.g, failure_time,
+                                     float(rows["t"][-1]),
+                                     last_speeds(rows, self.impacts, self.v_final).tolist())
         for name in (*METRICS, "contact_time"):
-            setattr(self, name, out[name] if np.ndim(out[name]) else float(out[name]))
+            value = out[name]
+            setattr(self, name, value if isinstance(value, np.ndarray) and value.ndim
+                    else float(value))
         imps = self.impacts
         self.separation_time = np.array(
             [max((m.t_end for m in imps if m.contact == k and m.separated), default=np.nan)
@@ -377,27 +380,20 @@ def _first_of_contact(r: Result) -> list:
 
 
 def _first_record(impacts, K: int, v_max: float) -> dict:
-    """The first-impact record (:data:`lsc.metrics.FIRST_KEYS`) of the impacts: per contact,
-    its first impact's touch, separation (NaN while open), speeds and peaks."""
+    """The first-impact record (:data:`lsc.metrics.FIRST_KEYS`) of the impacts on Python floats
+    (lists per contact, ``(rear, front)`` pairs; :func:`lsc.metrics.scene_metrics`): per
+    contact, its first impact's touch, separation (NaN while open), speeds and peaks."""
     nan, nan2 = float("nan"), (float("nan"),) * 2
     first = {"contact_time": [nan] * K, "v_touch": [nan2] * K, "first_end": [nan] * K,
-             "v_sep": [nan2] * K, "peak_force": [0.0] * K, "peak_acc": [(0.0, 0.0)] * K}
-    for k in range(K):   # (in Python, then one array each: cheaper than filling arrays)
-        m = next((m for m in impacts if m.contact == k), None)
-        if m is None:
-            continue
+             "v_sep": [nan2] * K, "peak_force": [0.0] * K, "peak_acc": [(0.0, 0.0)] * K,
+             "v_max": float(v_max)}
+    for m in reversed(impacts):   # (each contact's first impact last, so it stays)
+        k = m.contact
         first["contact_time"][k], first["v_touch"][k] = m.t_start, m.v_start
-        if m.separated:
-            first["first_end"][k], first["v_sep"][k] = m.t_end, m.v_end
+        first["first_end"][k], first["v_sep"][k] = ((m.t_end, m.v_end) if m.separated
+                                                    else (nan, nan2))
         first["peak_force"][k], first["peak_acc"][k] = m.peak_force, m.peak_acceleration
-    first = {key: np.array(value, float).reshape((K, 2) if key in _PAIRED else (K,))
-             for key, value in first.items()}
-    first["v_max"] = np.float64(v_max)
     return first
-
-
-#: The first-impact record's fields with a (rear, front) pair per contact.
-_PAIRED = ("v_touch", "v_sep", "peak_acc")
 
 
 def _failure_times(scene, events, rows) -> np.ndarray:
@@ -453,10 +449,12 @@ def _check_finite(r: Result) -> None:
 
 def _all_finite(r: Result) -> bool:
     """Whether every metric and total is finite, ``failure_time`` NaN or finite (the common
-    case, told with one NumPy call; the documented NaN otherwise is checked one by one)."""
+    case, told in one pass; the documented NaN otherwise is checked one by one)."""
     values = [getattr(r, name) for name in (*METRICS, *TOTALS) if name != "failure_time"]
-    flat = np.concatenate([v.ravel() if isinstance(v, np.ndarray) else (v,) for v in values])
-    return bool(np.isfinite(flat).all()) and not bool(np.isinf(r.failure_time).any())
+    # (on Python floats: a few numbers per metric, where NumPy's cost per call dominates)
+    return (all(math.isfinite(x) for v in values
+                for x in (v.ravel().tolist() if isinstance(v, np.ndarray) else (v,)))
+            and not any(map(math.isinf, r.failure_time.ravel().tolist())))
 
 
 def _not_applicable(r: Result, name: str, shape) -> np.ndarray:

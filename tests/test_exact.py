@@ -15,7 +15,7 @@ from lsc.model import HybridModel
 from lsc.scene import (Contact, Hysteresis, Restitution, Scene, UnloadingStiffness,
                        UnloadingTable, Vehicle)
 from lsc.solvers import closed_form, exact, pick, scipy_ode
-from helpers import two_cars
+from helpers import chain, two_cars
 
 # (what each metric is compared against: a scale of its own kind)
 SCALES = {"delta_v": "v", "v_final": "v", "peak_acceleration": "a", "duration": "t",
@@ -832,3 +832,87 @@ def test_a_scene_solved_again_reuses_its_model_and_its_numbers(monkeypatch):
     assert built == [member]
     # ΔV = (1 + e) m1 v0 / (m1 + m2) at a fixed restitution: 3/4 of the first
     assert slower.delta_v[1] == pytest.approx(0.75 * first.delta_v[1], rel=1e-12)
+
+
+def _varied_two_car_scenes():
+    """Two-vehicle IF-D scenes of every kind the exact backend solves one by one: linear and
+    table loading, each unloading rule, a gap or touching at t = 0, the target
+    at rest, backing or almost as fast, a failure force or a post-failure curve, a braked
+    vehicle."""
+    table = {"table": [[0, 0], [0.02, 60000], [0.04, 60000], [0.06, 40000], [0.1, 300000]]}
+    out = []
+    for i, (loading, unloading, gap, v2) in enumerate(itertools.product(
+            ({"stiffness": 2e6}, table, {"table": [[0, 0], [0.01, 1e4], [0.3, 2e5]]}),
+            ({"restitution": 0.4}, {"stiffness": 8e6}, {"table": [[0.3, 1.0], [0.2, 0.0]]}),
+            (0.0, 0.05), (0.0, -1.0, 3.999))):
+        d = two_cars(1500, 1200, 4.0, v2, loading, unloading, gap=gap)
+        if i % 5 == 1:
+            d["contacts"][0]["failure"] = {"force": 50000.0}
+        elif i % 5 == 2 and "stiffness" in loading:
+            d["contacts"][0]["failure"] = {"force": 50000.0,
+                                           "post_failure": {"stiffness": 5e5}}
+        if i % 4 == 3:
+            d["vehicles"][i % 2]["brake"] = {"mu": 0.7}
+        out.append(lsc.Scene.load(d))
+    return out
+
+
+def test_the_initial_state_and_event_rows_on_floats_are_the_models(monkeypatch):
+    """The exact backend's initial state (the law's ``init`` on Python floats) and its rows at
+    the event points (deformations and forces on Python floats) are the model's on NumPy, bit
+    for bit (signs of zeros included), in every kind of scene it solves."""
+    from lsc.solvers.exact import single
+
+    def same(a, b, what):
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), what
+        assert np.array_equal(np.signbit(a), np.signbit(b)), what
+
+    captured = []
+    rows_of = single._event_rows
+    monkeypatch.setattr(single, "_event_rows",
+                        lambda model, ends: captured.append(ends) or rows_of(model, ends))
+    solved = 0
+    for sc in _varied_two_car_scenes():
+        model = HybridModel(sc)
+        y0, disc = single._ScalarTransitions(model).initial()
+        y_np, disc_np = model.initial()
+        same(y0, y_np, "y0")
+        assert repr(disc) == repr(model.to_python(disc_np))
+        captured.clear()
+        try:
+            exact.solve(model)
+        except lsc.SimulationError:
+            continue   # (a table that ends too soon: no rows)
+        solved += 1
+        floats, arrays = rows_of(model, captured[0]), rows_of(model, captured[0], floats=False)
+        for key in arrays:
+            same(floats[key], arrays[key], key)
+    assert solved >= 30
+    # (the exact chain backend starts from the same initial state on floats)
+    for gaps in ((0.0, 0.0), (0.1, 0.0), (0.0, 0.2)):
+        d = chain([1500, 1200, 1800], [6.0, 1.0, -0.5],
+                  [{"loading": {"stiffness": 2e6}, "unloading": {"restitution": 0.3},
+                    "gap": g} for g in gaps])
+        model = HybridModel(lsc.Scene.load(d))
+        y0, disc = single._ScalarTransitions(model).initial()
+        same(y0, model.initial()[0], "y0")
+        assert repr(disc) == repr(model.to_python(model.initial()[1]))
+
+
+def test_the_event_rows_clamp_picks_as_numpy_does_on_ties():
+    """The rows' force on floats clamps the deformation to the segment as NumPy's ``maximum``
+    and ``minimum`` do, down to which of two equal zeros it keeps (the force's sign then)."""
+    from lsc.solvers.exact import single
+    from lsc.solvers.exact.kernels import _end_force
+
+    model = HybridModel(lsc.Scene.load(two_cars(1500, 1200, 4.0, 0.0, {"stiffness": 2e6},
+                                                {"restitution": 0.4})))
+    law, st = model.laws[0], model.to_python(model.initial()[1])[0]
+    for D, lo, hi in itertools.product((-0.0, 0.0, 0.5), (-0.0, 0.0), (-0.0, 0.0, 1.0)):
+        if lo > hi:
+            continue
+        seg = dict(st, lo=lo, hi=hi, fa=-0.0, s=1.0, da=0.0)
+        want = _end_force(np, law, np.array([D]), seg)[0]
+        got = _end_force(single._TIES, law, D, seg)
+        assert repr(float(got)) == repr(float(want)), (D, lo, hi)

@@ -243,3 +243,12 @@ def test_to_dict_lists_impacts_totals_and_warnings_as_json():
     assert d["totals"]["duration_total"] == r.duration_total
     assert d["warnings"] == []
     json.dumps(d)
+
+
+def test_an_impacts_largest_force_is_numpys_down_to_the_sign_of_zero():
+    """The largest row force of an impact (on floats) is NumPy's ``max`` of the rows, the
+    sign of a zero included (of equal zeros NumPy keeps the last)."""
+    from lsc.impacts import _largest
+
+    for values in ([0.0, -0.0], [-0.0, 0.0], [-0.0, -0.0, 0.0, -0.0], [1.0, -0.0], [-2.0, -1.0]):
+        assert repr(_largest(values)) == repr(float(np.max(np.array(values)))), values

@@ -350,3 +350,47 @@ def test_a_non_finite_series_is_refused_when_sampled():
     assert lazy.delta_v.tolist() == r.delta_v.tolist()
     with pytest.raises(lsc.SimulationError, match=r"non-finite values in v\b"):
         lazy.v
+
+
+def _random_record(rng, K):
+    """A one-scene first-impact record on Python floats with what the metrics must handle:
+    contacts never touched or still open, ties of the first touch, pushed-shut contacts,
+    zero spans, signed zeros; and contact records with nothing absorbed or a negative return."""
+    pick = rng.choice
+    ct = [float(pick([np.nan, 0.0, 0.5, rng.uniform(0, 1)])) for _ in range(K)]
+    end = [float(pick([np.nan, c, c + rng.uniform(0, 1), -0.0])) for c in ct]
+    pair = [(float(rng.normal()), float(pick([rng.normal(), -0.0, 0.0]))) for _ in range(K)]
+    first = {"contact_time": ct, "first_end": end,
+             "v_touch": [(a, pick([b, a, a - 1e-9])) for a, b in pair],
+             "v_sep": [tuple(map(float, rng.normal(size=2))) for _ in range(K)],
+             "peak_force": [float(pick([0.0, rng.uniform(0, 9)])) for _ in range(K)],
+             "peak_acc": [tuple(map(float, rng.normal(size=2))) for _ in range(K)],
+             "v_max": float(rng.uniform(0.5, 3))}
+    records = {key: [float(pick([0.0, -0.0, -1.0, rng.uniform(0, 5)])) for _ in range(K)]
+               for key in ("dmax", "dperm", "ec", "er")}
+    return first, records
+
+
+@pytest.mark.parametrize("K", [1, 2, 3])
+def test_the_one_scene_path_equals_the_array_metrics_bit_for_bit(K):
+    """:func:`lsc.metrics.scene_metrics` (a Result's, on Python floats) gives exactly the
+    numbers of :func:`lsc.metrics.metrics` on the same record as arrays: every value equal
+    (NaN where NaN) with the same sign (zeros included), the same shapes and types."""
+    rng = np.random.default_rng(K)
+    paired = ("v_touch", "v_sep", "peak_acc")
+    for _ in range(300):
+        first, records = _random_record(rng, K)
+        v_final, failure = rng.normal(size=K + 1), np.full(K, np.nan)
+        t_last, v_last, g = float(rng.uniform(1, 2)), rng.normal(size=K + 1), 9.80665
+        arrays = {key: np.array(val, float).reshape((K, 2) if key in paired else (K,))
+                  for key, val in first.items() if key != "v_max"}
+        arrays["v_max"] = np.float64(first["v_max"])
+        want = M.metrics(arrays, {k: np.array(v, float) for k, v in records.items()}, v_final,
+                         g, failure, t_last, v_last)
+        got = M.scene_metrics(first, records, v_final, g, failure, t_last, v_last.tolist())
+        assert set(got) == set(want)
+        for name, value in want.items():
+            a, b = np.asarray(got[name]), np.asarray(value)
+            assert a.shape == b.shape and np.ndim(got[name]) == np.ndim(value), name
+            assert np.array_equal(a, b, equal_nan=True), (name, a, b)
+            assert np.array_equal(np.signbit(a), np.signbit(b)), (name, a, b)

@@ -10,6 +10,7 @@ the series only when the Result's series are first read.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -73,7 +74,7 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         step = advance(t, y, disc, horizon)
         totals["steps"] += step.steps
         totals["nfev"] += step.nfev
-        if not np.isfinite(step.y).all():
+        if not all(map(math.isfinite, np.ravel(step.y).tolist())):
             raise SimulationError(f"the solution became non-finite near t = {step.t:.6g} s")
         segments.append(Segment(t, step.t, disc, step.dense))
         t, y = step.t, np.asarray(step.y, float)
@@ -123,10 +124,13 @@ def build_result(model, segments, events, y_final, disc_final, *, method, tolera
     N = model.N
     post = np.asarray(y_final if y_post is None else y_post)
     rows = event_rows(model, segments, y_final) if rows is None else rows
-    turns = _turning(rows) if segments else np.zeros((0, model.K), bool)
-    inside = [j for j, turn in enumerate(turns)
-              if interior and (turn.any() or model.work or N > 2)]
-    spans = list(peaks) + interior_peaks(model, [segments[j] for j in inside], turns[inside])
+    spans = list(peaks)
+    if interior and segments:
+        turns = _turning(rows)
+        inside = [j for j, turn in enumerate(turns.any(axis=1).tolist())
+                  if turn or model.work or N > 2]
+        if inside:
+            spans += interior_peaks(model, [segments[j] for j in inside], turns[inside])
     return Result.build(model.scene, rows=rows,
                         sampler=_Sampler(model, segments, y_final, n_samples), peaks=spans,
                         events=events, contacts=contact_records(model, disc_final),

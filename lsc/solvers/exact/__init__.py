@@ -51,8 +51,10 @@ def applies(scene) -> bool:
 def solve(model, **options):
     """:func:`.single.solve` (``t_end`` [time], ``n_samples``, ``max_events``) of ``model``,
     refused with a :class:`~lsc.errors.SceneError` if it uses what this backend does not
-    declare."""
-    BACKEND.check(model)
+    declare (a model, read-only once built, is checked once)."""
+    if not model.__dict__.get("_exact_declared"):
+        BACKEND.check(model)
+        model.__dict__["_exact_declared"] = True
     return single.solve(model, **options)
 
 

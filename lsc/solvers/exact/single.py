@@ -13,9 +13,11 @@ import time
 
 import numpy as np
 
+from ...model import OVER_TOL
 from ..segments import Step, build_result, run_segments
 from .braking import _stop_time, _turning_deformations
-from .kernels import _PY, _end_force, _force_rise_time, _next_event, _setup, _state
+from .kernels import (_PY, _end_force, _force_rise_time, _next_event, _PyMath, _setup,
+                      _state)
 
 
 class _ScalarTransitions:
@@ -24,6 +26,8 @@ class _ScalarTransitions:
     than NumPy on 0-d values. Everything else is the model's own."""
 
     def __init__(self, model):
+        if "crash_horizon" not in model.__dict__:   # (the model's cached property, on floats)
+            model.__dict__["crash_horizon"] = crash_horizon(model)
         self.__dict__.update(model.__dict__)   # its attributes, read without __getattr__
         self._model = model
         # the laws' numbers on Python scalars and lists (read only), once per model
@@ -43,20 +47,28 @@ class _ScalarTransitions:
     def initial(self):
         """The model's :meth:`~lsc.model.HybridModel.initial` state, on Python scalars, computed
         once per model (a model solved again starts from the same state) and copied out."""
-        start = self._model.__dict__.get("_exact_initial")
+        model = self._model
+        start = model.__dict__.get("_exact_initial")
         if start is None:
-            y0, disc = self._model.initial()
-            start = (y0, self._model.to_python(disc))
-            self._model.__dict__["_exact_initial"] = start
+            if len(model.parts) > model.K:   # effects: the model's own, on NumPy
+                y0, disc = model.initial()
+            else:   # the laws' own init, on Python floats (the same expressions)
+                p = model.params
+                y0 = np.concatenate([np.zeros(model.N), np.asarray(p["v0"], float),
+                                     np.zeros(len(model.work))])
+                x, v = y0[: model.N].tolist(), p["v0"].tolist()
+                gap, m = p["gap"].tolist(), p["m"].tolist()
+                mu = [a * b / (a + b) for a, b in zip(m, m[1:])]   # (as model._mu)
+                disc = [law.init(x[k] - x[k + 1] - gap[k], v[k] - v[k + 1], self._pp[k], _PY,
+                                 mu=mu[k]) for k, law in enumerate(model.laws)]
+            start = (y0, model.to_python(disc))
+            model.__dict__["_exact_initial"] = start
         return start[0].copy(), [dict(st) for st in start[1]]
 
     def is_over(self, y, disc, t=0.0, horizon=None):
-        """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
-        open (never over before: its first condition), so not on the NumPy arrays of every
-        segment's end."""
-        if any(st["mode"] for st in disc[: self.K]):
-            return False
-        return self._model.is_over(y, disc, t, horizon)
+        """The model's :meth:`~lsc.model.HybridModel.is_over` (:func:`is_over`, on Python
+        floats)."""
+        return is_over(self._model, y, disc, t, horizon)
 
     def apply_event(self, i, t, y, disc, p, xp=None):
         """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
@@ -182,27 +194,97 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                         rows=_event_rows(model, ends) if ends else None)
 
 
-def _event_rows(model, ends) -> dict:
+class _NumPyTies(_PyMath):
+    """:data:`.kernels._PY` with NumPy's ``maximum`` and ``minimum`` of two finite floats: of
+    two equal values (``-0.0`` and ``0.0``) the second, where Python's ``max`` keeps the
+    first."""
+
+    maximum = staticmethod(lambda a, b: a if a > b else b)
+    minimum = staticmethod(lambda a, b: a if a < b else b)
+
+
+_TIES = _NumPyTies()
+
+
+def _event_rows(model, ends, floats: bool = True) -> dict:
     """The rows at the event points (``t, x, v, a, deformation, force``, as
     :func:`~lsc.solvers.segments.event_rows` gives them): both ends of every segment, at the
-    exact states there, each in its segment's discrete state, for all segments at once (the
-    discrete states stacked as arrays). The force at a segment end is the law's at the
-    deformation clamped to the segment's range (:func:`.kernels._end_force`: a rounding-level
-    overshoot times a very steep rebound line is no force); the accelerations follow from it
-    as the model's net forces and brakes make them."""
+    exact states there, each in its segment's discrete state. The force at a segment end is the
+    law's at the deformation clamped to the segment's range (:func:`.kernels._end_force`: a
+    rounding-level overshoot times a very steep rebound line is no force); the accelerations
+    follow from it as the model's net forces and brakes make them. With no brakes, the
+    deformations and forces are computed on Python floats (``floats``; the same numbers as on
+    NumPy), else for all segments at once (the discrete states stacked as arrays)."""
     N, K = model.N, model.K
     t = np.array([tt for t0, t1, *_ in ends for tt in (t0, t1)])
-    y = np.array([v for _, _, y0, y1, _ in ends for v in (y0, y1)], float).T     # (4, 2S)
-    disc = []
-    for j, part in enumerate(ends[0][4]):
-        cols = np.repeat([[d[j][key] for key in part] for *_, d in ends], 2, axis=0)
-        disc.append(dict(zip(part, cols.T)))
-    p = dict(model.params, gap=model.params["gap"][:, None])
-    D, _ = model.deformation(y, p)
-    F = np.array([_end_force(np, law, D[k], disc[k]) for k, law in enumerate(model.laws)])
-    net = model.net_forces(F)
-    a = net / p["m"][:, None]
-    for j, b in enumerate(model.brakes):
-        a[b.i] = b.accel(net[b.i], p["m"][b.i], disc[K + j], p["brakes"][j])
+    if floats and not model.brakes:
+        gap, laws = model.params["gap"].tolist(), model.laws
+        y, D, F = [], [], []
+        for _, _, y0, y1, st in ends:
+            for yy in (y0.tolist(), y1):
+                d = [yy[k] - yy[k + 1] - gap[k] for k in range(K)]
+                y.append(yy)
+                D.append(d)
+                F.append([_end_force(_TIES, law, d[k], st[k]) for k, law in enumerate(laws)])
+        y, D, F = np.array(y, float).T, np.array(D, float).T, np.array(F, float).T
+        a = model.net_forces(F) / model.params["m"][:, None]
+    else:
+        y = np.array([v for _, _, y0, y1, _ in ends for v in (y0, y1)], float).T   # (n, 2S)
+        disc = []
+        for j, part in enumerate(ends[0][4]):
+            cols = np.repeat([[d[j][key] for key in part] for *_, d in ends], 2, axis=0)
+            disc.append(dict(zip(part, cols.T)))
+        p = dict(model.params, gap=model.params["gap"][:, None])
+        D, _ = model.deformation(y, p)
+        F = np.array([_end_force(np, law, D[k], disc[k]) for k, law in enumerate(model.laws)])
+        net = model.net_forces(F)
+        a = net / p["m"][:, None]
+        for j, b in enumerate(model.brakes):
+            a[b.i] = b.accel(net[b.i], p["m"][b.i], disc[K + j], p["brakes"][j])
     return {"t": t, "x": y[:N].T, "v": y[N:2 * N].T, "a": a.T, "deformation": D.T,
             "force": F.T}
+
+
+# ============================================================================ on Python floats
+# One scene's numbers as the model gives them (its array code on NumPy), computed here on Python
+# floats: the same expressions, operation for operation (so the same numbers, bit for bit, as
+# tests/test_model_scales.py and tests/test_exact.py check), without NumPy's cost per call on
+# arrays of a few values.
+def is_over(model, y, disc, t=0.0, horizon=None) -> bool:
+    """:meth:`~lsc.model.HybridModel.is_over` of one scene's state (``y`` (n,), ``disc`` on
+    Python scalars, ``horizon`` [s] default :attr:`~lsc.model.HybridModel.crash_horizon`)."""
+    K, N = model.K, model.N
+    if any(st["mode"] for st in disc[: K + len(model.brakes)]):
+        return False   # a contact closed, or a braked vehicle sliding
+    horizon = model.crash_horizon if horizon is None else horizon
+    y, gap, slow = y.tolist(), model.params["gap"].tolist(), OVER_TOL * model.v_scale
+    for k, law in enumerate(model.laws):
+        D, Dd = y[k] - y[k + 1] - gap[k], y[N + k] - y[N + k + 1]
+        if not (Dd <= slow or law.closing_gap(D, disc[k]) > Dd * (horizon - t)):
+            return False
+    return True
+
+
+def crash_horizon(model) -> float:
+    """:meth:`~lsc.model.HybridModel.horizon` of the scene's own parameters [s]."""
+    p = model.params
+    v0, m, v = p["v0"].tolist(), p["m"].tolist(), model.v_scale   # (speed_scale())
+    w = [a - b for a, b in zip(v0, v0[1:])]
+    w_min = min(x if x > 1e-12 * v else math.inf for x in w)
+    w_min = w_min if math.isfinite(w_min) else v
+    extent = float(p["gap"].sum(axis=-1))
+    for c in p["contacts"]:
+        for key in ("ld", "ud"):   # (a table's last breakpoint: BIG, 1e300, is no extent)
+            if key in c:
+                extent = extent + max(x if x < 1e299 else 0.0
+                                      for x in np.abs(np.ravel(c[key])).tolist())
+    # time_scale(slowest=True): the softest valid slope and the heaviest pair
+    mu = max(a * b / (a + b) for a, b in zip(m, m[1:]))
+    s = [x for c in p["contacts"] for key in ("ls", "su", "k") if key in c
+         for x in np.abs(np.ravel(c[key])).tolist()]
+    if s:
+        k = min((x for x in s if math.isfinite(x) and x > 0), default=math.inf)
+        T = math.sqrt(mu / (k if math.isfinite(k) else 1.0))
+    else:
+        T = math.sqrt(mu)
+    return 1e6 * T + 4.0 * extent / w_min + 1.0
