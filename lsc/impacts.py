@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SimulationError
-from .metrics import PUSHED, _root_ratio, restitution_of
+from .metrics import PUSHED, restitution
 
 __all__ = ["Impact", "find_impacts", "check_resolved", "PUSHED"]
 
@@ -188,9 +188,15 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
             closing_speed=closing, separation_speed=separating, v_start=vs, v_end=ve,
             delta_v=(ve[0] - vs[0], ve[1] - vs[1]), peak_acceleration=peak_a,
             peak_acceleration_g=tuple(x / g for x in peak_a), peak_force=force_k,
-            max_deformation=crush, restitution=restitution_of(vs, ve, v_max),
+            max_deformation=crush,
+            restitution=float(restitution(np.array(vs), np.array(ve), v_max)),
             restitution_energy=e_energy, struck=closing > PUSHED * v_max))
     return tuple(impacts)
+
+
+def _root_ratio(er: float, ec: float) -> float:
+    """``sqrt(er / ec)`` [-] as NumPy takes it on floats (NaN for a negative ratio)."""
+    return math.sqrt(er / ec) if er >= 0 else math.nan
 
 
 def check_resolved(t0: float, t1: float, what: str) -> None:

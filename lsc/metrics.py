@@ -18,13 +18,10 @@ impact's; a contact's velocity restitution is NaN where it never touched or was 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 __all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
-           "event_update", "restitution", "in_g", "headline", "metrics", "scene_metrics",
-           "restitution_of"]
+           "event_update", "restitution", "in_g", "headline", "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
@@ -181,64 +178,6 @@ def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
     if separation_time is not None:
         out["separation_time"] = separation_time
     return out
-
-
-def scene_metrics(first, records, v_final, g, failure_time, t_last, v_last) -> dict:
-    """:func:`metrics` of one scene, its record on Python floats (as a Result has it): the same
-    expressions, operation for operation (so the same numbers, bit for bit), without NumPy's
-    cost per call on arrays of one or two values.
-
-    ``first``: the record with lists (``contact_time`` (K,) ..., pairs as ``(rear, front)``) and
-    ``v_max`` a float; ``records``: lists (K,); ``v_final``, ``failure_time``: arrays, given back
-    as they are; ``v_last`` (N,) a sequence. Returns :func:`metrics`' dict (arrays per vehicle
-    and contact, ``duration`` a float)."""
-    ct, t1, v_touch = first["contact_time"], first["first_end"], first["v_touch"]
-    K = len(ct)
-    touched = [c == c for c in ct]
-    ended = [t == t for t in t1]
-    v_end = [first["v_sep"][k] if ended[k] else (v_last[k], v_last[k + 1]) for k in range(K)]
-    dv = [(e[0] - s[0], e[1] - s[1]) if hit else (0.0, 0.0)
-          for e, s, hit in zip(v_end, v_touch, touched)]
-    start = [c if hit else math.inf for c, hit in zip(ct, touched)]
-    # each vehicle: its rear contact (side 1) when that touched first, else its front (side 0)
-    sides = [(0, 0)] + [(k - 1, 1) if start[k - 1] <= start[k] else (k, 0)
-                        for k in range(1, K)] + [(K - 1, 1)]
-
-    def per_vehicle(x):
-        return np.array([x[k][s] if touched[k] else 0.0 for k, s in sides], float)
-
-    k1 = min(range(K), key=start.__getitem__)   # the scene's first impact (the lowest index)
-    span = ((t1[k1] if ended[k1] else t_last) - ct[k1]) if touched[k1] else 0.0
-    rest = [restitution_of(s, e, first["v_max"]) for s, e in zip(v_touch, v_end)]
-    peak_a = per_vehicle(first["peak_acc"])
-    ec, er = records["ec"], records["er"]
-    return {
-        "delta_v": per_vehicle(dv), "peak_acceleration": peak_a,
-        "peak_force": np.array(first["peak_force"], float),
-        "duration": span + 0.0,   # (as NumPy's sum with the other contacts' zeros: -0 is +0)
-        "contact_time": np.array(ct, float), "restitution": np.array(rest, float),
-        "v_final": v_final, "peak_acceleration_g": peak_a / g,
-        "max_deformation": np.array(records["dmax"], float),
-        "permanent_deformation": np.array(records["dperm"], float),
-        "energy_absorbed": np.array(ec, float), "energy_returned": np.array(er, float),
-        "restitution_energy": np.array([_root_ratio(r, c) for r, c in zip(er, ec)], float),
-        "failure_time": failure_time}
-
-
-def restitution_of(v_touch, v_end, v_max: float) -> float:
-    """:func:`restitution` of one impact on Python floats (``v_touch``, ``v_end``: (rear,
-    front) pairs; ``v_max`` [velocity])."""
-    closing = v_touch[0] - v_touch[1]
-    return (v_end[1] - v_end[0]) / closing if closing > PUSHED * v_max else math.nan
-
-
-def _root_ratio(er: float, ec: float) -> float:
-    """``sqrt(er / ec)`` as :func:`metrics` takes it on NumPy (NaN for a negative ratio or
-    0/0, ``inf`` for x/0)."""
-    if ec > 0 and er >= 0:
-        return math.sqrt(er / ec)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return float(np.sqrt(np.float64(er) / np.float64(ec)))
 
 
 #: The values :func:`metrics` gives per contact (with the contact axis last).

@@ -176,11 +176,11 @@ class Result:
     def _set_metrics(self, rows, contacts, failure_time, v_max) -> None:
         """The metrics (:func:`lsc.metrics.metrics`) from the first impact of each contact;
         the totals over the run."""
-        records = {key: [float(c[key]) for c in contacts] for key in ("dmax", "dperm", "ec", "er")}
+        records = {key: np.array([c[key] for c in contacts], float)
+                   for key in ("dmax", "dperm", "ec", "er")}
         first = _first_record(self.impacts, len(contacts), v_max)
-        out = _metrics.scene_metrics(first, records, self.v_final, self.scene.g, failure_time,
-                                     float(rows["t"][-1]),
-                                     last_speeds(rows, self.impacts, self.v_final).tolist())
+        out = _metrics.metrics(first, records, self.v_final, self.scene.g, failure_time,
+                               float(rows["t"][-1]), last_speeds(rows, self.impacts, self.v_final))
         for name in (*METRICS, "contact_time"):
             value = out[name]
             setattr(self, name, value if isinstance(value, np.ndarray) and value.ndim
@@ -380,20 +380,26 @@ def _first_of_contact(r: Result) -> list:
 
 
 def _first_record(impacts, K: int, v_max: float) -> dict:
-    """The first-impact record (:data:`lsc.metrics.FIRST_KEYS`) of the impacts on Python floats
-    (lists per contact, ``(rear, front)`` pairs; :func:`lsc.metrics.scene_metrics`): per
-    contact, its first impact's touch, separation (NaN while open), speeds and peaks."""
+    """The first-impact record (:data:`lsc.metrics.FIRST_KEYS`) of the impacts: per contact,
+    its first impact's touch, separation (NaN while open), speeds and peaks."""
     nan, nan2 = float("nan"), (float("nan"),) * 2
     first = {"contact_time": [nan] * K, "v_touch": [nan2] * K, "first_end": [nan] * K,
-             "v_sep": [nan2] * K, "peak_force": [0.0] * K, "peak_acc": [(0.0, 0.0)] * K,
-             "v_max": float(v_max)}
+             "v_sep": [nan2] * K, "peak_force": [0.0] * K, "peak_acc": [(0.0, 0.0)] * K}
     for m in reversed(impacts):   # (each contact's first impact last, so it stays)
         k = m.contact
         first["contact_time"][k], first["v_touch"][k] = m.t_start, m.v_start
         first["first_end"][k], first["v_sep"][k] = ((m.t_end, m.v_end) if m.separated
                                                     else (nan, nan2))
         first["peak_force"][k], first["peak_acc"][k] = m.peak_force, m.peak_acceleration
+    # (in Python, then one array each: cheaper than filling arrays)
+    first = {key: np.array(value, float).reshape((K, 2) if key in _PAIRED else (K,))
+             for key, value in first.items()}
+    first["v_max"] = np.float64(v_max)
     return first
+
+
+#: The first-impact record's fields with a (rear, front) pair per contact.
+_PAIRED = ("v_touch", "v_sep", "peak_acc")
 
 
 def _failure_times(scene, events, rows) -> np.ndarray:
