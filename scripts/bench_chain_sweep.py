@@ -45,17 +45,17 @@ def main() -> None:
     a = ap.parse_args()
     scene, values = random_chains(a.vehicles, a.n, a.seed, a.e_min)
     alone = {"members": 0, "time": 0.0}
-    original = _batch._solve_member
+    original = _batch.solve_one   # (the single solve solve_alone runs on a handed member)
 
-    def counted(*args):
+    def counted(*args, **kw):
         start = time.perf_counter()
         try:
-            return original(*args)
+            return original(*args, **kw)
         finally:
             alone["members"] += 1
             alone["time"] += time.perf_counter() - start
 
-    _batch._solve_member = counted
+    _batch.solve_one = counted
     start = time.perf_counter()
     res = lsc.sweep(scene, values, method="exact-chain", progress=False)
     t_batch = time.perf_counter() - start
