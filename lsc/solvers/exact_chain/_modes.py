@@ -216,9 +216,29 @@ class Shape:
 
     Parameters: ``m`` (N,) masses [mass]; ``slope`` (K,) each contact's active slope
     [force/length] (0 when open); ``incidence`` (N, K) the model's (contact ``k`` pushes
-    vehicle ``k`` back and ``k+1`` forward)."""
+    vehicle ``k`` back and ``k+1`` forward).
 
-    def __init__(self, m, slope, incidence):
+    A Shape is a pure function of these three arrays and is never changed once built, so the
+    ones built last are kept (:data:`SHAPES` of them, keyed by their bytes) and given back to a
+    later chain with the same masses and slopes: the same object, hence the same numbers, without
+    the eigensolver (a sweep's or a fit's chains repeat them solve after solve)."""
+
+    _cache: dict = {}
+
+    def __new__(cls, m, slope, incidence):
+        m, slope = np.asarray(m, float), np.asarray(slope, float)
+        incidence = np.asarray(incidence, float)
+        key = (m.tobytes(), slope.tobytes(), incidence.shape, incidence.tobytes())
+        shape = cls._cache.get(key)
+        if shape is None:
+            shape = super().__new__(cls)
+            shape._build(m, slope, incidence)
+            if len(cls._cache) >= SHAPES:
+                cls._cache.clear()
+            cls._cache[key] = shape
+        return shape
+
+    def _build(self, m, slope, incidence):
         C = -incidence.T   # (K, N): D = C x - gap
         root = np.sqrt(m)
         kappa, Q = _modes(C, slope, root)
@@ -240,6 +260,10 @@ class Shape:
         self.searched = np.array([k for k, a in enumerate(active) if a]
                                  + [len(active) + i for i, n in enumerate(pushed) if n > 1],
                                  dtype=int)
+
+
+#: How many :class:`Shape` objects are kept for reuse (all dropped at once when full).
+SHAPES = 4096
 
 
 def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
