@@ -20,7 +20,7 @@ import numpy as np
 from ._batch_modes import Sums
 from ._roots import PER_RADIAN, TOUCH
 
-__all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
+__all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
 
 #: Sample steps per window of the batch search.
 WINDOW = 16
@@ -290,14 +290,15 @@ def _quadratic(g: Sums, search, start, limit):
 #: is below this fraction of the function's size there (:data:`._roots.FLAT`, relaxed from
 #: 1e-15 to what :data:`._roots.DEPTH` bisections leave in the single solve).
 FLAT = 1e-14
-#: How many times at most :func:`extremes` samples an interval again, finer.
+#: How many times at most :func:`extreme_values` samples an interval again, finer.
 PEAK_LEVELS = 6
 
 
-def extremes(g: Sums, T, largest):
-    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest value (where
-    ``largest`` (F,)) or its value of largest magnitude, signed (elsewhere): ``(peaks (b, F),
-    undecided (b,))``. The values are taken at every sample, at both ends and at every zero
+def extreme_values(g: Sums, T, largest):
+    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
+    values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
+    ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
+    for a force), for the value of largest magnitude elsewhere. The values are taken at every sample, at both ends and at every zero
     of the derivative, whose sign changes are found and refined as :func:`earliest` finds
     zeros. Where the derivative may touch zero between two samples of one sign (the bound on
     the third derivative cannot clear it), the function can exceed its samples there by at
@@ -387,8 +388,7 @@ def extremes(g: Sums, T, largest):
     size = np.maximum(np.abs(top), np.abs(bottom))
     for m, j, excess in late:
         undecided[m[excess > FLAT * size[m, j]]] = True
-    peaks = np.where(largest[None, :] | (np.abs(top) >= np.abs(bottom)), top, bottom)
-    return peaks, undecided
+    return top, bottom, undecided
 
 
 def _windows(lo, hi, h, first, count):
