@@ -21,8 +21,22 @@ __all__ = ["BatchMotion", "Sums", "basis"]
 
 def basis(w, tau):
     """``S, C`` (..., n) at times ``tau`` (...) [s] for the modes of angular frequency ``w``
-    (..., n) [1/s] (0: rigid), from half angles as :meth:`._modes.Modes.basis` computes them."""
+    (..., n) [1/s] (0: rigid), from half angles as :meth:`._modes.Modes.basis` computes them.
+    (Mode 0 is rigid in every member of a chain, the translation of the group of its first
+    vehicle (:func:`_modes`): where it is, its sines are not computed.)"""
     tau = np.asarray(tau, float)[..., None]
+    if w.shape[-1] > 1 and not w[..., 0].any():
+        S = np.empty(np.broadcast_shapes(w.shape, tau.shape))
+        C = np.empty_like(S)
+        S[..., 1:], C[..., 1:] = _harmonic(w[..., 1:], tau)
+        S[..., :1] = tau
+        C[..., :1] = 0.5 * tau * tau
+        return S, C
+    return _harmonic(w, tau)
+
+
+def _harmonic(w, tau):
+    """:func:`basis` on every mode, rigid ones (``w`` 0) included."""
     rigid = w == 0
     ws = np.where(rigid, 1.0, w)
     h = (0.5 * ws) * tau
