@@ -209,9 +209,12 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     # (the function made positive at ``a`` by its sign, which rounds alike; the basis as
     # :func:`._batch_modes.basis` computes it, its per-mode constants taken once)
     w = (g.w[:, 0, :] if g.w.ndim == 3 else g.w)[live]
-    rigid = w == 0
-    ws = np.where(rigid, 1.0, w)
+    # (mode 0 rigid in every member, as :func:`._batch_modes.basis` has it: its sines skipped)
+    first = 1 if w.shape[1] > 1 and not w[:, 0].any() else 0
+    rigid = w[:, first:] == 0
+    ws = np.where(rigid, 1.0, w[:, first:])
     half = 0.5 * ws
+    S, C = np.empty(w.shape), np.empty(w.shape)
     sign = np.where(fa[live] > 0, 1.0, -1.0)[:, None]
     al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
     kal = g.kappa[live] * al
@@ -227,8 +230,9 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
         tau = xl[:, None]
         hx = half * tau
         sw = np.sin(hx) / ws
-        S = np.where(rigid, tau, 2.0 * sw * np.cos(hx))
-        C = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
+        S[:, :first], C[:, :first] = tau, 0.5 * tau * tau
+        S[:, first:] = np.where(rigid, tau, 2.0 * sw * np.cos(hx))
+        C[:, first:] = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
         f = c + np.sum(al * S + ga * C, axis=1)
         df = np.sum(al + ga * S - kal * C, axis=1)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
@@ -254,9 +258,9 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
             keep = ~done
             if not keep.any():
                 return x
-            live, rigid, ws, half, al, ga, kal, c = (
+            live, rigid, ws, half, al, ga, kal, c, S, C = (
                 live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep], kal[keep],
-                c[keep])
+                c[keep], S[keep], C[keep])
             lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
             back = tuple(a[keep] for a in back)
     x[live] = xl
