@@ -73,11 +73,34 @@ def earliest(g: Sums, armed, start, limit):
     """The first downward zero of each member's armed functions (b, F) searched from ``start``
     (b, F) up to ``limit`` (b,) [s]: ``(τ (b,), function (b,) or -1, undecided (b,) bool)``; -1
     where none is found before ``limit`` (or, with ``undecided``, where the search gave up)."""
+    search = armed & ~np.isnan(start)
+    F = g.c.shape[1]
+    M = max(int(search.sum(axis=1).max(initial=0)), 1)
+    if M < F:
+        # (the functions searched, packed into M columns in their order: one event's few)
+        order = np.argsort(~search, axis=1, kind="stable")[:, :M]
+        tau, which, undecided = _earliest(_columns(g, order),
+                                          np.take_along_axis(search, order, axis=1),
+                                          np.take_along_axis(start, order, axis=1), limit)
+        got = which >= 0
+        which[got] = order[np.flatnonzero(got), which[got]]
+        return tau, which, undecided
+    return _earliest(g, search, start, limit)
+
+
+def _columns(g: Sums, order) -> Sums:
+    """The functions ``order`` (b, M) of each member."""
+    rows = np.arange(order.shape[0])[:, None]
+    return Sums(np.take_along_axis(g.c, order, axis=1), g.alpha[rows, order],
+                g.gamma[rows, order], g.kappa, g.w)
+
+
+def _earliest(g: Sums, search, start, limit):
+    """:func:`earliest` of the functions ``search`` (b, F) of each member."""
     b, F = g.c.shape
     tau = np.full(b, np.nan)
     which = np.full(b, -1)
     undecided = np.zeros(b, bool)
-    search = armed & ~np.isnan(start)
     start = np.where(search, start, np.inf)
     g_start = np.where(search, g.each_at(np.where(search, start, 0.0)), np.inf)
     # a function at or below zero where its search starts fires there
