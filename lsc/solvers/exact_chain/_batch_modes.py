@@ -25,29 +25,25 @@ def basis(w, tau):
     (Mode 0 is rigid in every member of a chain, the translation of the group of its first
     vehicle (:func:`_modes`): where it is, its sines are not computed.)"""
     tau = np.asarray(tau, float)[..., None]
-    if w.shape[-1] > 1 and not w[..., 0].any():
-        S = np.empty(np.broadcast_shapes(w.shape, tau.shape))
-        C = np.empty_like(S)
-        S[..., 1:], C[..., 1:] = _harmonic(w[..., 1:], tau)
+    S = np.empty(np.broadcast_shapes(w.shape, tau.shape))
+    C = np.empty_like(S)
+    first = 1 if w.shape[-1] > 1 and not w[..., 0].any() else 0
+    if first:
         S[..., :1] = tau
-        C[..., :1] = 0.5 * tau * tau
-        return S, C
-    return _harmonic(w, tau)
-
-
-def _harmonic(w, tau):
-    """:func:`basis` on every mode, rigid ones (``w`` 0) included."""
+        np.multiply(0.5 * tau, tau, out=C[..., :1])
+    w = w[..., first:]
     rigid = w == 0
     ws = np.where(rigid, 1.0, w)
-    h = (0.5 * ws) * tau
+    # (in place, into S and C: the same arithmetic)
+    h = np.multiply(0.5 * ws, tau, out=S[..., first:])
     sw = np.sin(h)
     sw /= ws
     two_sw = 2.0 * sw
-    S = np.multiply(two_sw, np.cos(h, out=h), out=h)      # (in place: the same arithmetic)
-    C = np.multiply(two_sw, sw, out=two_sw)
+    np.multiply(two_sw, np.cos(h, out=h), out=h)
+    np.multiply(two_sw, sw, out=C[..., first:])
     if rigid.any():
-        np.copyto(S, tau, where=rigid)
-        np.copyto(C, 0.5 * tau * tau, where=rigid)
+        np.copyto(S[..., first:], tau, where=rigid)
+        np.copyto(C[..., first:], 0.5 * tau * tau, where=rigid)
     return S, C
 
 

@@ -248,21 +248,35 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     # round the zero, where the function is rounding) repeats for good, so the state the last
     # step would leave is known at once (by the parity of the steps left)
     back = (np.full(live.size, np.nan),) * 3
+    some_rigid = bool(rigid.any())
+    with np.errstate(all="ignore"):
+        return _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c,
+                       lo, hi, xl, floor, back, S, C)
+
+
+def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c, lo, hi, xl,
+            floor, back, S, C):
+    """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
     for k in range(iterations):
         x_k = xl
         tau = xl[:, None]
         hx = half * tau
         sw = np.sin(hx) / ws
-        S[:, :first], C[:, :first] = tau, 0.5 * tau * tau
-        S[:, first:] = np.where(rigid, tau, 2.0 * sw * np.cos(hx))
-        C[:, first:] = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
+        two_sw = 2.0 * sw
+        half_tt = 0.5 * tau * tau
+        S[:, :first], C[:, :first] = tau, half_tt
+        if some_rigid:
+            S[:, first:] = np.where(rigid, tau, two_sw * np.cos(hx))
+            C[:, first:] = np.where(rigid, half_tt, two_sw * sw)
+        else:
+            np.multiply(two_sw, np.cos(hx, out=hx), out=S[:, first:])
+            np.multiply(two_sw, sw, out=C[:, first:])
         f = c + np.sum(al * S + ga * C, axis=1)
         df = np.sum(al + ga * S - kal * C, axis=1)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
-        with np.errstate(all="ignore"):
-            new = xl - f / df
+        new = xl - f / df
         tol = 4 * _EPS * np.abs(xl) + floor
         zero = f == 0
         done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
