@@ -299,6 +299,12 @@ class Motion:
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
+        if np.ndim(tau) == 0:   # (one time: the modal terms on Python floats, same arithmetic)
+            S, C = self.modes.basis_at(float(tau))
+            a, b = self.a.tolist(), self.b.tolist()
+            q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
+            dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+            return np.concatenate([self.x0 + self.T @ q, self.v0 + self.T @ dq])
         S, C = self.modes.basis(np.atleast_1d(tau))
         q = S * self.a + C * self.b
         dq = S * self.b - self.kappa * C * self.a    # q'(τ) - q'(0)
