@@ -37,6 +37,26 @@ def _grid(modes: Modes, lo: float, hi: float) -> np.ndarray:
     return tt
 
 
+#: Grids whose basis a :class:`Modes` keeps (all dropped at once when full).
+GRIDS = 8
+
+
+def _grid_basis(modes: Modes, lo: float, hi: float):
+    """``(tt, S, C)``: :func:`_grid` and its basis, kept on ``modes`` (a search's first window
+    is the same one segment after segment of a set of slopes, whose modes a chain keeps)."""
+    grids = modes.__dict__.setdefault("_grids", {})
+    got = grids.get((lo, hi))
+    if got is None:
+        if len(grids) >= GRIDS:
+            grids.clear()
+        tt = _grid(modes, lo, hi)
+        got = (tt, *modes.basis(tt))
+        for a in got:
+            a.flags.writeable = False   # (shared from call to call)
+        grids[(lo, hi)] = got
+    return got
+
+
 class Stack:
     """Series on the same modes stacked for sampling them together: ``c`` (E,), ``alpha``,
     ``gamma`` (E, n); :meth:`series` gives each back (for the search between samples)."""
@@ -96,8 +116,8 @@ def earliest(funcs, lo: float, hi: float,
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
-    tt = _grid(modes, lo, hi)
-    vals = stack.on(tt)
+    tt, S, C = _grid_basis(modes, lo, hi)
+    vals = stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T
     step = tt[1] - tt[0]
     bounds = stack.curvature_bounds(hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
