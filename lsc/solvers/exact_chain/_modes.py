@@ -191,12 +191,15 @@ class Series:
         return _at_zero(self.c, self.alpha.tolist(), self.gamma.tolist(),
                         [-k for k in self.modes._kappa], n)
 
-    def sizes_at_zero(self, n: int, size: float) -> list[float]:
-        """The sizes of the terms summed into ``g(0), ..., g^(n)(0)`` (:meth:`derivatives_at_zero`
-        on ``|α|, |γ|, |κ|``; ``size``: that of ``g(0)``): their rounding is a few ulps of
-        these."""
-        return _at_zero(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
-                        [abs(k) for k in self.modes._kappa], n)
+    def each_at_zero(self, size: float):
+        """``(g^(p)(0), the size of its terms)`` for ``p = 0, 1, ...``, one at a time (as
+        :meth:`derivatives_at_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
+        ``size`` the size of ``g(0)``: their rounding is a few ulps of it; a search that stops at
+        the first derivative clear of rounding computes no more)."""
+        minus = [-k for k in self.modes._kappa]
+        return zip(_at_zero_terms(self.c, self.alpha.tolist(), self.gamma.tolist(), minus),
+                   _at_zero_terms(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
+                                  [abs(k) for k in self.modes._kappa]))
 
     def curvature_bound(self, T: float) -> float:
         """A bound on ``|g''|`` over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
@@ -268,12 +271,19 @@ SHAPES = 4096
 
 def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
     """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...`` (``n + 1`` terms)."""
-    out, power = [c], [1.0] * len(alpha)
-    for p in range(1, n + 1):
-        out.append(math.fsum(x * q for x, q in zip(alpha if p % 2 else gamma, power)))
+    terms = _at_zero_terms(c, alpha, gamma, factor)
+    return [next(terms) for _ in range(n + 1)]
+
+
+def _at_zero_terms(c: float, alpha: list, gamma: list, factor: list):
+    """The terms of :func:`_at_zero`, one at a time (as many as asked for)."""
+    yield c
+    power, p = [1.0] * len(alpha), 1
+    while True:
+        yield math.fsum(x * q for x, q in zip(alpha if p % 2 else gamma, power))
         if p % 2 == 0:
             power = [q * f for q, f in zip(power, factor)]
-    return out
+        p += 1
 
 
 class Motion:

@@ -311,18 +311,21 @@ def _taylor_clear(d: Series, T: float, rounding: float) -> float:
     n = 2 * d.alpha.size + 1
     if abs(d.c) > 64 * _EPS * rounding:
         return 0.0   # (clear of rounding at 0: the common case, decided without the series)
-    vals = d.derivatives_at_zero(n)
-    tol = [64 * _EPS * x for x in d.sizes_at_zero(n, rounding)]
-    if abs(vals[0]) > tol[0]:
+    terms = d.each_at_zero(rounding)
+    value, size = next(terms)
+    if abs(value) > 64 * _EPS * size:
         return 0.0
-    p = next((k for k in range(1, n + 1) if abs(vals[k]) > tol[k]), None)
-    if p is None:
+    for p in range(1, n + 1):
+        value, size = next(terms)
+        if abs(value) > 64 * _EPS * size:
+            break
+    else:
         return 0.0
     lower = d
     for _ in range(p - 1):
         lower = lower.derivative()
     B = lower.curvature_bound(T)
-    return min(0.5 * (p + 1) * abs(vals[p]) / B, T) if B > 0 else T
+    return min(0.5 * (p + 1) * abs(value) / B, T) if B > 0 else T
 
 
 #: A function that provably varies by less than this fraction of its size over an interval
