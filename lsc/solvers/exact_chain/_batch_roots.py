@@ -150,7 +150,7 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
     todo = np.arange(n)
     steps = count
     for level in range(LEVELS + 1):
-        gg = g.take(todo)
+        gg = g if level == 0 else g.take(todo)   # (level 0: every member, as they come)
         m = todo.size
         tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
         tt[:, -1] = end
@@ -373,7 +373,7 @@ def extreme_values(g: Sums, T, largest):
         first = level == 0
         count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
         tt, end = _windows(lo, hi, h, first, count)
-        gl, dl = g.take(r), d.take(r)
+        gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
         np.fmax.at(top, r, np.max(vals, axis=2))
