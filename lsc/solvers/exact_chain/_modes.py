@@ -156,15 +156,19 @@ class Series:
     def __call__(self, tau):
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
         if isinstance(tau, float) or np.ndim(tau) == 0:
-            S, C = self.modes.basis_at(float(tau))
-            return self.c + sum(a * s + g * c for (a, g), s, c in zip(self._terms(), S, C))
+            tau, total = float(tau), 0.0
+            for a, g, _, s, c in _at_time(self._modal(), tau):
+                total += a * s + g * c
+            return self.c + total
         S, C = self.modes.basis(np.atleast_1d(tau))
         return self.c + S @ self.alpha + C @ self.gamma
 
-    def _terms(self) -> list:
-        """``[(α_j, γ_j)]`` as Python floats (for one time at a time)."""
+    def _modal(self) -> list:
+        """``[(kind, ω_j, α_j, γ_j, κ_j)]`` as Python floats (for one time at a time)."""
         if not hasattr(self, "_coef"):
-            self._coef = list(zip(self.alpha.tolist(), self.gamma.tolist()))
+            self._coef = [(kind, w, a, g, k) for (kind, w), a, g, k in
+                          zip(self.modes._kinds, self.alpha.tolist(), self.gamma.tolist(),
+                              self.modes._kappa)]
         return self._coef
 
     def with_slope(self, tau):
@@ -174,9 +178,8 @@ class Series:
             S, C = self.modes.basis(tau)
             return (self.c + S @ self.alpha + C @ self.gamma,
                     np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
-        S, C = self.modes.basis_at(tau)
         g, dg = self.c, 0.0
-        for (a, c), k, s_j, c_j in zip(self._terms(), self.modes._kappa, S, C):
+        for a, c, k, s_j, c_j in _at_time(self._modal(), tau):
             g += a * s_j + c * c_j
             dg += a * (1.0 - k * c_j) + c * s_j
         return g, dg
@@ -267,6 +270,24 @@ class Shape:
 
 #: How many :class:`Shape` objects are kept for reuse (all dropped at once when full).
 SHAPES = 4096
+
+
+def _at_time(modal: list, tau: float):
+    """``(α_j, γ_j, κ_j, S_j(τ), C_j(τ))`` of each mode of ``modal`` (:meth:`Series._modal`)
+    at one time ``tau`` [s], on Python floats, as :meth:`Modes.basis_at` computes them."""
+    out = []
+    for kind, w, a, g, k in modal:
+        if kind == 0:
+            out.append((a, g, k, tau, 0.5 * tau * tau))
+            continue
+        h = 0.5 * w * tau
+        try:
+            s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
+        except OverflowError:
+            s = c = math.inf
+        sw = s / w
+        out.append((a, g, k, 2.0 * sw * c, 2.0 * sw * sw))
+    return out
 
 
 def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
