@@ -74,18 +74,9 @@ class Modes:
         """``S, C`` (lists, one per mode) at one time ``tau`` [s] (as :meth:`basis`)."""
         S, C = [], []
         for kind, w in self._kinds:
-            if kind == 0:
-                S.append(tau)
-                C.append(0.5 * tau * tau)
-                continue
-            h = 0.5 * w * tau
-            try:
-                s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
-            except OverflowError:
-                s = c = math.inf
-            sw = s / w
-            S.append(2.0 * sw * c)
-            C.append(2.0 * sw * sw)
+            s, c = _mode_at(kind, w, tau)
+            S.append(s)
+            C.append(c)
         return S, C
 
     def basis(self, tau):
@@ -275,19 +266,21 @@ SHAPES = 4096
 def _at_time(modal: list, tau: float):
     """``(α_j, γ_j, κ_j, S_j(τ), C_j(τ))`` of each mode of ``modal`` (:meth:`Series._modal`)
     at one time ``tau`` [s], on Python floats, as :meth:`Modes.basis_at` computes them."""
-    out = []
-    for kind, w, a, g, k in modal:
-        if kind == 0:
-            out.append((a, g, k, tau, 0.5 * tau * tau))
-            continue
-        h = 0.5 * w * tau
-        try:
-            s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
-        except OverflowError:
-            s = c = math.inf
-        sw = s / w
-        out.append((a, g, k, 2.0 * sw * c, 2.0 * sw * sw))
-    return out
+    return [(a, g, k, *_mode_at(kind, w, tau)) for kind, w, a, g, k in modal]
+
+
+def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
+    """``S, C`` of one mode (``kind``: 1 harmonic, 0 rigid, -1 hyperbolic; ``w`` its
+    ``sqrt|κ|`` [1/s]) at one time ``tau`` [s], from half angles (as :meth:`Modes.basis`)."""
+    if kind == 0:
+        return tau, 0.5 * tau * tau
+    h = 0.5 * w * tau
+    try:
+        s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
+    except OverflowError:
+        s = c = math.inf
+    sw = s / w
+    return 2.0 * sw * c, 2.0 * sw * sw
 
 
 def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
