@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums
+from ._batch_modes import Sums, msum
 from ._roots import PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
@@ -271,8 +271,8 @@ def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal
         else:
             np.multiply(two_sw, np.cos(hx, out=hx), out=S[:, first:])
             np.multiply(two_sw, sw, out=C[:, first:])
-        f = c + np.sum(al * S + ga * C, axis=1)
-        df = np.sum(al + ga * S - kal * C, axis=1)
+        f = c + msum(al * S + ga * C)
+        df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
@@ -309,8 +309,8 @@ def _quadratic(g: Sums, search, start, limit):
     r τ²/2``, its first downward root after its start in closed form (as
     :func:`._roots._quadratic_crossing`; a double root is a touch)."""
     c = g.c
-    p = np.sum(g.alpha, axis=-1)
-    r = np.sum(g.gamma, axis=-1)
+    p = msum(g.alpha)
+    r = msum(g.gamma)
     with np.errstate(all="ignore"):
         disc = p * p - 2.0 * r * c
         q = -0.5 * (p + np.copysign(np.sqrt(np.maximum(disc, 0.0)), p))
