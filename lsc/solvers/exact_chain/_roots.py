@@ -37,23 +37,26 @@ def _grid(modes: Modes, lo: float, hi: float) -> np.ndarray:
     return tt
 
 
-#: Grids whose basis a :class:`Modes` keeps (all dropped at once when full).
-GRIDS = 8
+#: First windows whose grid and basis a :class:`Modes` keeps (all dropped at once when full),
+#: and the most points such a grid may have (a first window has about 8π).
+GRIDS, GRID_POINTS = 4, 64
 
 
 def _grid_basis(modes: Modes, lo: float, hi: float):
-    """``(tt, S, C)``: :func:`_grid` and its basis, kept on ``modes`` (a search's first window
-    is the same one segment after segment of a set of slopes, whose modes a chain keeps)."""
+    """``(tt, S, C)``: :func:`_grid` and its basis; those of a first window (from 0, small)
+    kept on ``modes``: it is the same segment after segment of a set of slopes, whose modes
+    the chains keep (:class:`~._modes.Shape`)."""
     grids = modes.__dict__.setdefault("_grids", {})
     got = grids.get((lo, hi))
     if got is None:
-        if len(grids) >= GRIDS:
-            grids.clear()
         tt = _grid(modes, lo, hi)
         got = (tt, *modes.basis(tt))
-        for a in got:
-            a.flags.writeable = False   # (shared from call to call)
-        grids[(lo, hi)] = got
+        if lo == 0.0 and tt.size <= GRID_POINTS:
+            if len(grids) >= GRIDS:
+                grids.clear()
+            for a in got:
+                a.flags.writeable = False   # (shared from call to call)
+            grids[(lo, hi)] = got
     return got
 
 
