@@ -320,3 +320,35 @@ def test_two_vehicles_are_refused():
              "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}}]}
     with pytest.raises(lsc.SceneError, match="it solves at least 3 vehicles, the scene has 2"):
         lsc.solve(scene, method="exact-chain")
+
+
+def test_a_shape_is_reused_only_for_the_same_masses_and_slopes(monkeypatch):
+    """The modes of a set of slopes (``_modes.Shape``) are kept from chain to chain: the same
+    masses and slopes (new arrays, equal floats) give back the same object, whose numbers are
+    those a fresh build gives; masses or a slope one ulp apart give a Shape of their own, whose
+    eigenvalues are those of their own ``M^-1 K`` (an independent eigensolve); changing the
+    caller's array afterwards changes nothing kept."""
+    from lsc.solvers.exact_chain import _modes
+
+    monkeypatch.setattr(_modes.Shape, "_cache", {})
+    m = np.array([100.0, 80.0, 120.0])
+    slope = np.array([24000.0, 50000.0])
+    incidence = -_modes.deformation_map(3).T
+    shape = _modes.Shape(m, slope, incidence)
+    assert _modes.Shape(m.copy(), slope.copy(), incidence.copy()) is shape
+    kept = (shape.modes.kappa.copy(), shape.T.copy(), shape.P.copy())
+    monkeypatch.setattr(_modes.Shape, "_cache", {})
+    fresh = _modes.Shape(m, slope, incidence)
+    assert fresh is not shape
+    for a, b in zip(kept, (fresh.modes.kappa, fresh.T, fresh.P)):
+        assert np.array_equal(a, b)
+    for m2, s2 in ((np.array([100.0, np.nextafter(80.0, 81.0), 120.0]), slope),
+                   (m, np.array([24000.0, np.nextafter(50000.0, 0.0)]))):
+        other = _modes.Shape(m2, s2, incidence)
+        assert other is not fresh
+        K = incidence @ np.diag(s2) @ incidence.T
+        want = np.sort(np.linalg.eigvals(K / m2[:, None]).real)
+        assert np.allclose(np.sort(other.modes.kappa), want, rtol=1e-12,
+                           atol=1e-12 * np.max(want))
+    m[1] = 999.0     # (the caller's array, changed after the build)
+    assert _modes.Shape(np.array([100.0, 80.0, 120.0]), slope, incidence) is fresh

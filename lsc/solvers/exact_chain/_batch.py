@@ -5,7 +5,7 @@ Each iteration every live member solves its own segment in closed form
 (:class:`~._batch_modes.BatchMotion`), finds its earliest event with the guarantee of
 :mod:`._roots` (:func:`~._batch_roots.earliest`, the restart rule of :func:`._solve._start`
 included: :func:`~._batch_roots.start_times`), folds the peaks between the events into its
-first-impact record (:func:`~._batch_roots.extremes`, :mod:`lsc.metrics`) and takes the law's
+first-impact record (:func:`~._batch_roots.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
 contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
 Result computes them. A member the vectorised search cannot decide (a tangency, a segment
@@ -31,7 +31,7 @@ from ...result import METRICS
 from ..base import solve_alone
 from ..exact.batch import _Rows
 from ._batch_modes import BatchMotion, Sums
-from ._batch_roots import earliest, extremes, start_times
+from ._batch_roots import earliest, extreme_values, start_times
 from ._modes import deformation_map
 from ._solve import START_TOL, solve as solve_one
 
@@ -269,19 +269,28 @@ class _Batch:
     def _peaks(self, motion, slope, force, ix, r, tau):
         """Each contact's largest force and each vehicle's acceleration of largest magnitude
         (signed) over ``[0, τ]`` of members ``r``: ``(peaks (m, K + N), undecided (m,))`` (as
-        :meth:`._solve._Chain._peaks`)."""
+        :meth:`._solve._Chain._peaks`). The extrema are searched on the forces and on the
+        accelerations of the vehicles between two contacts; the end vehicles' accelerations
+        are their one contact's force over their mass, whose value of largest magnitude is the
+        force's, scaled."""
+        K, N = self.K, self.N
         P = motion.P[r]
         rows = slope[r][:, :, None] * P                                    # (m, K, N)
         a, bq = motion.a[r][:, None, :], motion.b[r][:, None, :]
         fa, fg = rows * a, rows * bq
-        inc = -self.C.T
-        mass = self.m[ix[r]][:, :, None]
+        inc = -self.C.T[1:N - 1]                                            # (N - 2, K)
+        m = self.m[ix[r]]
+        mass = m[:, 1:N - 1, None]
         c = np.concatenate([force[r], (force[r] @ inc.T) / mass[:, :, 0]], axis=1)
         alpha = np.concatenate([fa, np.einsum("nk,mkj->mnj", inc, fa) / mass], axis=1)
         gamma = np.concatenate([fg, np.einsum("nk,mkj->mnj", inc, fg) / mass], axis=1)
         series = Sums(c, alpha, gamma, motion.kappa[r], motion.w[r])
-        largest = np.arange(self.K + self.N) < self.K
-        return extremes(series, tau, largest)
+        largest = np.arange(K + N - 2) < K
+        top, bottom, undecided = extreme_values(series, tau, largest)
+        signed = np.where(np.abs(top) >= np.abs(bottom), top, bottom)
+        # (contact 0 pushes vehicle 0 back, contact K - 1 pushes vehicle N - 1 forward)
+        return np.concatenate([top[:, :K], -signed[:, :1] / m[:, :1], signed[:, K:],
+                               signed[:, K - 1:K] / m[:, N - 1:]], axis=1), undecided
 
     def _result_checks(self, metrics, out, first) -> np.ndarray:
         """(n,): what ``Result.build`` checks besides the impacts (the whole crash resolved by

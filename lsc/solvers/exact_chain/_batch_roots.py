@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums
+from ._batch_modes import Sums, msum
 from ._roots import PER_RADIAN, TOUCH
 
-__all__ = ["start_times", "earliest", "refine", "extremes", "WINDOW", "LEVELS"]
+__all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
 
 #: Sample steps per window of the batch search.
 WINDOW = 16
@@ -73,11 +73,34 @@ def earliest(g: Sums, armed, start, limit):
     """The first downward zero of each member's armed functions (b, F) searched from ``start``
     (b, F) up to ``limit`` (b,) [s]: ``(τ (b,), function (b,) or -1, undecided (b,) bool)``; -1
     where none is found before ``limit`` (or, with ``undecided``, where the search gave up)."""
+    search = armed & ~np.isnan(start)
+    F = g.c.shape[1]
+    M = max(int(search.sum(axis=1).max(initial=0)), 1)
+    if M < F:
+        # (the functions searched, packed into M columns in their order: one event's few)
+        order = np.argsort(~search, axis=1, kind="stable")[:, :M]
+        tau, which, undecided = _earliest(_columns(g, order),
+                                          np.take_along_axis(search, order, axis=1),
+                                          np.take_along_axis(start, order, axis=1), limit)
+        got = which >= 0
+        which[got] = order[np.flatnonzero(got), which[got]]
+        return tau, which, undecided
+    return _earliest(g, search, start, limit)
+
+
+def _columns(g: Sums, order) -> Sums:
+    """The functions ``order`` (b, M) of each member."""
+    rows = np.arange(order.shape[0])[:, None]
+    return Sums(np.take_along_axis(g.c, order, axis=1), g.alpha[rows, order],
+                g.gamma[rows, order], g.kappa, g.w)
+
+
+def _earliest(g: Sums, search, start, limit):
+    """:func:`earliest` of the functions ``search`` (b, F) of each member."""
     b, F = g.c.shape
     tau = np.full(b, np.nan)
     which = np.full(b, -1)
     undecided = np.zeros(b, bool)
-    search = armed & ~np.isnan(start)
     start = np.where(search, start, np.inf)
     g_start = np.where(search, g.each_at(np.where(search, start, 0.0)), np.inf)
     # a function at or below zero where its search starts fires there
@@ -127,7 +150,7 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
     todo = np.arange(n)
     steps = count
     for level in range(LEVELS + 1):
-        gg = g.take(todo)
+        gg = g if level == 0 else g.take(todo)   # (level 0: every member, as they come)
         m = todo.size
         tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
         tt[:, -1] = end
@@ -209,9 +232,12 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     # (the function made positive at ``a`` by its sign, which rounds alike; the basis as
     # :func:`._batch_modes.basis` computes it, its per-mode constants taken once)
     w = (g.w[:, 0, :] if g.w.ndim == 3 else g.w)[live]
-    rigid = w == 0
-    ws = np.where(rigid, 1.0, w)
+    # (mode 0 rigid in every member, as :func:`._batch_modes.basis` has it: its sines skipped)
+    first = 1 if w.shape[1] > 1 and not w[:, 0].any() else 0
+    rigid = w[:, first:] == 0
+    ws = np.where(rigid, 1.0, w[:, first:])
     half = 0.5 * ws
+    S, C = np.empty(w.shape), np.empty(w.shape)
     sign = np.where(fa[live] > 0, 1.0, -1.0)[:, None]
     al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
     kal = g.kappa[live] * al
@@ -222,20 +248,35 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     # round the zero, where the function is rounding) repeats for good, so the state the last
     # step would leave is known at once (by the parity of the steps left)
     back = (np.full(live.size, np.nan),) * 3
+    some_rigid = bool(rigid.any())
+    with np.errstate(all="ignore"):
+        return _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c,
+                       lo, hi, xl, floor, back, S, C)
+
+
+def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c, lo, hi, xl,
+            floor, back, S, C):
+    """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
     for k in range(iterations):
         x_k = xl
         tau = xl[:, None]
         hx = half * tau
         sw = np.sin(hx) / ws
-        S = np.where(rigid, tau, 2.0 * sw * np.cos(hx))
-        C = np.where(rigid, 0.5 * tau * tau, 2.0 * sw * sw)
-        f = c + np.sum(al * S + ga * C, axis=1)
-        df = np.sum(al + ga * S - kal * C, axis=1)
+        two_sw = 2.0 * sw
+        half_tt = 0.5 * tau * tau
+        S[:, :first], C[:, :first] = tau, half_tt
+        if some_rigid:
+            S[:, first:] = np.where(rigid, tau, two_sw * np.cos(hx))
+            C[:, first:] = np.where(rigid, half_tt, two_sw * sw)
+        else:
+            np.multiply(two_sw, np.cos(hx, out=hx), out=S[:, first:])
+            np.multiply(two_sw, sw, out=C[:, first:])
+        f = c + msum(al * S + ga * C)
+        df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
-        with np.errstate(all="ignore"):
-            new = xl - f / df
+        new = xl - f / df
         tol = 4 * _EPS * np.abs(xl) + floor
         zero = f == 0
         done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
@@ -254,9 +295,9 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
             keep = ~done
             if not keep.any():
                 return x
-            live, rigid, ws, half, al, ga, kal, c = (
+            live, rigid, ws, half, al, ga, kal, c, S, C = (
                 live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep], kal[keep],
-                c[keep])
+                c[keep], S[keep], C[keep])
             lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
             back = tuple(a[keep] for a in back)
     x[live] = xl
@@ -268,8 +309,8 @@ def _quadratic(g: Sums, search, start, limit):
     r τ²/2``, its first downward root after its start in closed form (as
     :func:`._roots._quadratic_crossing`; a double root is a touch)."""
     c = g.c
-    p = np.sum(g.alpha, axis=-1)
-    r = np.sum(g.gamma, axis=-1)
+    p = msum(g.alpha)
+    r = msum(g.gamma)
     with np.errstate(all="ignore"):
         disc = p * p - 2.0 * r * c
         q = -0.5 * (p + np.copysign(np.sqrt(np.maximum(disc, 0.0)), p))
@@ -290,14 +331,15 @@ def _quadratic(g: Sums, search, start, limit):
 #: is below this fraction of the function's size there (:data:`._roots.FLAT`, relaxed from
 #: 1e-15 to what :data:`._roots.DEPTH` bisections leave in the single solve).
 FLAT = 1e-14
-#: How many times at most :func:`extremes` samples an interval again, finer.
+#: How many times at most :func:`extreme_values` samples an interval again, finer.
 PEAK_LEVELS = 6
 
 
-def extremes(g: Sums, T, largest):
-    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest value (where
-    ``largest`` (F,)) or its value of largest magnitude, signed (elsewhere): ``(peaks (b, F),
-    undecided (b,))``. The values are taken at every sample, at both ends and at every zero
+def extreme_values(g: Sums, T, largest):
+    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
+    values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
+    ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
+    for a force), for the value of largest magnitude elsewhere. The values are taken at every sample, at both ends and at every zero
     of the derivative, whose sign changes are found and refined as :func:`earliest` finds
     zeros. Where the derivative may touch zero between two samples of one sign (the bound on
     the third derivative cannot clear it), the function can exceed its samples there by at
@@ -331,7 +373,7 @@ def extremes(g: Sums, T, largest):
         first = level == 0
         count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
         tt, end = _windows(lo, hi, h, first, count)
-        gl, dl = g.take(r), d.take(r)
+        gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
         np.fmax.at(top, r, np.max(vals, axis=2))
@@ -387,8 +429,7 @@ def extremes(g: Sums, T, largest):
     size = np.maximum(np.abs(top), np.abs(bottom))
     for m, j, excess in late:
         undecided[m[excess > FLAT * size[m, j]]] = True
-    peaks = np.where(largest[None, :] | (np.abs(top) >= np.abs(bottom)), top, bottom)
-    return peaks, undecided
+    return top, bottom, undecided
 
 
 def _windows(lo, hi, h, first, count):

@@ -74,18 +74,9 @@ class Modes:
         """``S, C`` (lists, one per mode) at one time ``tau`` [s] (as :meth:`basis`)."""
         S, C = [], []
         for kind, w in self._kinds:
-            if kind == 0:
-                S.append(tau)
-                C.append(0.5 * tau * tau)
-                continue
-            h = 0.5 * w * tau
-            try:
-                s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
-            except OverflowError:
-                s = c = math.inf
-            sw = s / w
-            S.append(2.0 * sw * c)
-            C.append(2.0 * sw * sw)
+            s, c = _mode_at(kind, w, tau)
+            S.append(s)
+            C.append(c)
         return S, C
 
     def basis(self, tau):
@@ -156,15 +147,19 @@ class Series:
     def __call__(self, tau):
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
         if isinstance(tau, float) or np.ndim(tau) == 0:
-            S, C = self.modes.basis_at(float(tau))
-            return self.c + sum(a * s + g * c for (a, g), s, c in zip(self._terms(), S, C))
+            tau, total = float(tau), 0.0
+            for a, g, _, s, c in _at_time(self._modal(), tau):
+                total += a * s + g * c
+            return self.c + total
         S, C = self.modes.basis(np.atleast_1d(tau))
         return self.c + S @ self.alpha + C @ self.gamma
 
-    def _terms(self) -> list:
-        """``[(α_j, γ_j)]`` as Python floats (for one time at a time)."""
+    def _modal(self) -> list:
+        """``[(kind, ω_j, α_j, γ_j, κ_j)]`` as Python floats (for one time at a time)."""
         if not hasattr(self, "_coef"):
-            self._coef = list(zip(self.alpha.tolist(), self.gamma.tolist()))
+            self._coef = [(kind, w, a, g, k) for (kind, w), a, g, k in
+                          zip(self.modes._kinds, self.alpha.tolist(), self.gamma.tolist(),
+                              self.modes._kappa)]
         return self._coef
 
     def with_slope(self, tau):
@@ -174,9 +169,8 @@ class Series:
             S, C = self.modes.basis(tau)
             return (self.c + S @ self.alpha + C @ self.gamma,
                     np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
-        S, C = self.modes.basis_at(tau)
         g, dg = self.c, 0.0
-        for (a, c), k, s_j, c_j in zip(self._terms(), self.modes._kappa, S, C):
+        for a, c, k, s_j, c_j in _at_time(self._modal(), tau):
             g += a * s_j + c * c_j
             dg += a * (1.0 - k * c_j) + c * s_j
         return g, dg
@@ -191,12 +185,15 @@ class Series:
         return _at_zero(self.c, self.alpha.tolist(), self.gamma.tolist(),
                         [-k for k in self.modes._kappa], n)
 
-    def sizes_at_zero(self, n: int, size: float) -> list[float]:
-        """The sizes of the terms summed into ``g(0), ..., g^(n)(0)`` (:meth:`derivatives_at_zero`
-        on ``|α|, |γ|, |κ|``; ``size``: that of ``g(0)``): their rounding is a few ulps of
-        these."""
-        return _at_zero(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
-                        [abs(k) for k in self.modes._kappa], n)
+    def each_at_zero(self, size: float):
+        """``(g^(p)(0), the size of its terms)`` for ``p = 0, 1, ...``, one at a time (as
+        :meth:`derivatives_at_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
+        ``size`` the size of ``g(0)``: their rounding is a few ulps of it; a search that stops at
+        the first derivative clear of rounding computes no more)."""
+        minus = [-k for k in self.modes._kappa]
+        return zip(_at_zero_terms(self.c, self.alpha.tolist(), self.gamma.tolist(), minus),
+                   _at_zero_terms(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
+                                  [abs(k) for k in self.modes._kappa]))
 
     def curvature_bound(self, T: float) -> float:
         """A bound on ``|g''|`` over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
@@ -216,9 +213,29 @@ class Shape:
 
     Parameters: ``m`` (N,) masses [mass]; ``slope`` (K,) each contact's active slope
     [force/length] (0 when open); ``incidence`` (N, K) the model's (contact ``k`` pushes
-    vehicle ``k`` back and ``k+1`` forward)."""
+    vehicle ``k`` back and ``k+1`` forward).
 
-    def __init__(self, m, slope, incidence):
+    A Shape is a pure function of these three arrays and is never changed once built, so the
+    ones built last are kept (:data:`SHAPES` of them, keyed by their bytes) and given back to a
+    later chain with the same masses and slopes: the same object, hence the same numbers, without
+    the eigensolver (a sweep's or a fit's chains repeat them solve after solve)."""
+
+    _cache: dict = {}
+
+    def __new__(cls, m, slope, incidence):
+        m, slope = np.asarray(m, float), np.asarray(slope, float)
+        incidence = np.asarray(incidence, float)
+        key = (m.tobytes(), slope.tobytes(), incidence.shape, incidence.tobytes())
+        shape = cls._cache.get(key)
+        if shape is None:
+            shape = super().__new__(cls)
+            shape._build(m, slope, incidence)
+            if len(cls._cache) >= SHAPES:
+                cls._cache.clear()
+            cls._cache[key] = shape
+        return shape
+
+    def _build(self, m, slope, incidence):
         C = -incidence.T   # (K, N): D = C x - gap
         root = np.sqrt(m)
         kappa, Q = _modes(C, slope, root)
@@ -242,14 +259,45 @@ class Shape:
                                  dtype=int)
 
 
+#: How many :class:`Shape` objects are kept for reuse (all dropped at once when full).
+SHAPES = 4096
+
+
+def _at_time(modal: list, tau: float):
+    """``(α_j, γ_j, κ_j, S_j(τ), C_j(τ))`` of each mode of ``modal`` (:meth:`Series._modal`)
+    at one time ``tau`` [s], on Python floats, as :meth:`Modes.basis_at` computes them."""
+    return [(a, g, k, *_mode_at(kind, w, tau)) for kind, w, a, g, k in modal]
+
+
+def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
+    """``S, C`` of one mode (``kind``: 1 harmonic, 0 rigid, -1 hyperbolic; ``w`` its
+    ``sqrt|κ|`` [1/s]) at one time ``tau`` [s], from half angles (as :meth:`Modes.basis`)."""
+    if kind == 0:
+        return tau, 0.5 * tau * tau
+    h = 0.5 * w * tau
+    try:
+        s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
+    except OverflowError:
+        s = c = math.inf
+    sw = s / w
+    return 2.0 * sw * c, 2.0 * sw * sw
+
+
 def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
     """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...`` (``n + 1`` terms)."""
-    out, power = [c], [1.0] * len(alpha)
-    for p in range(1, n + 1):
-        out.append(math.fsum(x * q for x, q in zip(alpha if p % 2 else gamma, power)))
+    terms = _at_zero_terms(c, alpha, gamma, factor)
+    return [next(terms) for _ in range(n + 1)]
+
+
+def _at_zero_terms(c: float, alpha: list, gamma: list, factor: list):
+    """The terms of :func:`_at_zero`, one at a time (as many as asked for)."""
+    yield c
+    power, p = [1.0] * len(alpha), 1
+    while True:
+        yield math.fsum(x * q for x, q in zip(alpha if p % 2 else gamma, power))
         if p % 2 == 0:
             power = [q * f for q, f in zip(power, factor)]
-    return out
+        p += 1
 
 
 class Motion:
@@ -275,6 +323,12 @@ class Motion:
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
+        if np.ndim(tau) == 0:   # (one time: the modal terms on Python floats, same arithmetic)
+            S, C = self.modes.basis_at(float(tau))
+            a, b = self.a.tolist(), self.b.tolist()
+            q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
+            dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+            return np.concatenate([self.x0 + self.T @ q, self.v0 + self.T @ dq])
         S, C = self.modes.basis(np.atleast_1d(tau))
         q = S * self.a + C * self.b
         dq = S * self.b - self.kappa * C * self.a    # q'(τ) - q'(0)

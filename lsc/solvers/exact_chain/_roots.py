@@ -37,6 +37,29 @@ def _grid(modes: Modes, lo: float, hi: float) -> np.ndarray:
     return tt
 
 
+#: First windows whose grid and basis a :class:`Modes` keeps (all dropped at once when full),
+#: and the most points such a grid may have (a first window has about 8π).
+GRIDS, GRID_POINTS = 4, 64
+
+
+def _grid_basis(modes: Modes, lo: float, hi: float):
+    """``(tt, S, C)``: :func:`_grid` and its basis; those of a first window (from 0, small)
+    kept on ``modes``: it is the same segment after segment of a set of slopes, whose modes
+    the chains keep (:class:`~._modes.Shape`)."""
+    grids = modes.__dict__.setdefault("_grids", {})
+    got = grids.get((lo, hi))
+    if got is None:
+        tt = _grid(modes, lo, hi)
+        got = (tt, *modes.basis(tt))
+        if lo == 0.0 and tt.size <= GRID_POINTS:
+            if len(grids) >= GRIDS:
+                grids.clear()
+            for a in got:
+                a.flags.writeable = False   # (shared from call to call)
+            grids[(lo, hi)] = got
+    return got
+
+
 class Stack:
     """Series on the same modes stacked for sampling them together: ``c`` (E,), ``alpha``,
     ``gamma`` (E, n); :meth:`series` gives each back (for the search between samples)."""
@@ -96,8 +119,8 @@ def earliest(funcs, lo: float, hi: float,
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
-    tt = _grid(modes, lo, hi)
-    vals = stack.on(tt)
+    tt, S, C = _grid_basis(modes, lo, hi)
+    vals = stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T
     step = tt[1] - tt[0]
     bounds = stack.curvature_bounds(hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
@@ -291,18 +314,21 @@ def _taylor_clear(d: Series, T: float, rounding: float) -> float:
     n = 2 * d.alpha.size + 1
     if abs(d.c) > 64 * _EPS * rounding:
         return 0.0   # (clear of rounding at 0: the common case, decided without the series)
-    vals = d.derivatives_at_zero(n)
-    tol = [64 * _EPS * x for x in d.sizes_at_zero(n, rounding)]
-    if abs(vals[0]) > tol[0]:
+    terms = d.each_at_zero(rounding)
+    value, size = next(terms)
+    if abs(value) > 64 * _EPS * size:
         return 0.0
-    p = next((k for k in range(1, n + 1) if abs(vals[k]) > tol[k]), None)
-    if p is None:
+    for p in range(1, n + 1):
+        value, size = next(terms)
+        if abs(value) > 64 * _EPS * size:
+            break
+    else:
         return 0.0
     lower = d
     for _ in range(p - 1):
         lower = lower.derivative()
     B = lower.curvature_bound(T)
-    return min(0.5 * (p + 1) * abs(vals[p]) / B, T) if B > 0 else T
+    return min(0.5 * (p + 1) * abs(value) / B, T) if B > 0 else T
 
 
 #: A function that provably varies by less than this fraction of its size over an interval
