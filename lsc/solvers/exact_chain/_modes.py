@@ -230,7 +230,7 @@ class Shape:
         if shape is None:
             shape = super().__new__(cls)
             shape._build(m, slope, incidence)
-            if len(cls._cache) >= SHAPES:
+            if len(cls._cache) >= SHAPES or len(cls._cache) * m.size ** 2 > SHAPE_ENTRIES:
                 cls._cache.clear()
             cls._cache[key] = shape
         return shape
@@ -261,6 +261,9 @@ class Shape:
 
 #: How many :class:`Shape` objects are kept for reuse (all dropped at once when full).
 SHAPES = 4096
+#: ... and at most about this many (N, N) matrix entries in all (each Shape holds a few (N, N)
+#: and (K, N) matrices: a bound of some tens of MB for long chains).
+SHAPE_ENTRIES = 1_000_000
 
 
 def _at_time(modal: list, tau: float):
