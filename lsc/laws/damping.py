@@ -19,7 +19,8 @@ from ..units import register_kind
 from ._common import MODE_LOADING, MODE_OPEN, MODE_UNLOADING, Param
 from ._common import select as _sel
 from ._common import smooth_min as _min
-from .relations import brach_c2, hunt_crossley_a, kelvin_dlne_dzeta, kelvin_zeta
+from .relations import (MIN_RESTITUTION, brach_c2, hunt_crossley_a, kelvin_dlne_dzeta,
+                        kelvin_zeta)
 
 __all__ = ["Damping", "SpringDashpotLaw", "KelvinLaw", "HuntCrossleyLaw", "BrachLaw"]
 
@@ -49,9 +50,11 @@ class Damping:
 
 
 def _target_restitution(e: float) -> str | None:
-    if not 0 < e <= 1:
-        return ("a damping law's target restitution must be in (0, 1] (e = 0 needs an infinite "
-                f"damping), got {e:g}")
+    if not MIN_RESTITUTION <= e <= 1:
+        return (f"a damping law's target restitution must be in [{MIN_RESTITUTION!r}, 1] "
+                "(e = 0 needs an infinite damping; below the smallest normal float64 the laws' "
+                "dampings overflow: Hunt-Crossley's a tends to 1/e, Kelvin's ratio to "
+                f"exp(-ln(e)/2)/2), got {e!r}")
     return None
 
 
@@ -60,7 +63,7 @@ STIFFNESS = Param("stiffness", "stiffness", "k: force/length (Hunt–Crossley: f
                   minimum=0.0)
 RESTITUTION = Param("restitution", "dimensionless", "the target coefficient of restitution e, "
                     "converted to the damping by the law's own relation", default=None,
-                    check=_target_restitution, schema=(0, True, 1))
+                    check=_target_restitution, schema=(MIN_RESTITUTION, False, 1))
 
 
 def _one_of_damping_or_restitution(law: str) -> str:

@@ -1,0 +1,73 @@
+"""The spring–dashpot laws at the ends of their target restitution: below the smallest normal
+float64 (``MIN_RESTITUTION``) their dampings overflow (Hunt–Crossley's ``a ≈ 1/e``, Kelvin's
+``ζ`` past where ``ζ²`` does), so the loader and a sweep refuse such a restitution with a
+SceneError on its field; at the limit every law converts it, or Brach's law (whose ``c2 ≈ k/(e
+v0)`` overflows there) says that it cannot with a SimulationError, never another exception."""
+
+import math
+
+import numpy as np
+import pytest
+
+import lsc
+from lsc.laws.relations import MIN_RESTITUTION, hunt_crossley_a, kelvin_zeta
+
+LAWS = ["hunt-crossley", "kelvin", "brach"]
+
+
+def _scene(law, e):
+    return {"vehicles": [{"mass": 1000, "speed": 5}, {"mass": 1500, "speed": 0}],
+            "contacts": [{"law": law, "stiffness": 1e6, "restitution": e}]}
+
+
+def _refusal(e):
+    return (f"contacts[0].restitution: a damping law's target restitution must be in "
+            f"[2.2250738585072014e-308, 1] (e = 0 needs an infinite damping; below the smallest "
+            f"normal float64 the laws' dampings overflow: Hunt-Crossley's a tends to 1/e, "
+            f"Kelvin's ratio to exp(-ln(e)/2)/2), got {e!r}")
+
+
+def test_the_limit_is_the_smallest_normal_float():
+    assert MIN_RESTITUTION == 2.2250738585072014e-308 == np.finfo(float).tiny
+
+
+@pytest.mark.parametrize("law", LAWS)
+@pytest.mark.parametrize("e", [1e-310, 5e-324, np.nextafter(MIN_RESTITUTION, 0)])
+def test_subnormal_restitution_is_a_scene_error_on_its_field(law, e):
+    with pytest.raises(lsc.SceneError) as info:
+        lsc.Scene.load(_scene(law, float(e)))
+    assert info.value.path == "contacts[0].restitution"
+    assert str(info.value) == _refusal(float(e))
+
+
+@pytest.mark.parametrize("law", ["hunt-crossley", "kelvin"])
+def test_sweep_member_with_a_subnormal_restitution_fails_alone(law):
+    r = lsc.sweep(_scene(law, 0.5), {"contacts[0].restitution": [0.5, 1e-310]})
+    assert r.status[0] == "ok"
+    assert r.status[1] == "SceneError: " + _refusal(1e-310)
+    assert r.metrics["restitution"][0, 0] == pytest.approx(0.5, rel=1e-6)
+
+
+@pytest.mark.parametrize("fn, law", [(hunt_crossley_a, "Hunt-Crossley"), (kelvin_zeta, "Kelvin")])
+def test_relations_refuse_a_subnormal_restitution(fn, law):
+    with pytest.raises(ValueError) as info:
+        fn(1e-310)
+    assert str(info.value) == (f"the {law} target restitution must be at least MIN_RESTITUTION "
+                               "= 2.2250738585072014e-308 (its damping overflows below it), "
+                               "got 1e-310")
+
+
+def test_relations_at_the_limit_are_finite_and_solve_their_relations():
+    e = MIN_RESTITUTION
+    a = hunt_crossley_a(e)   # a (1 + e) = ln(1 + a) + L, a e = 1 - exp(-L): a -> 1/e
+    assert math.isfinite(a) and a == pytest.approx(1 / e, rel=1e-12)
+    z = kelvin_zeta(e)       # ln e = -2ζ arccosh ζ / √(ζ² - 1), ≈ -2 ln(2ζ) for large ζ
+    assert math.isfinite(z)
+    assert -2 * math.log(2 * z) == pytest.approx(math.log(e), rel=1e-12)
+
+
+def test_brach_restitution_whose_c2_overflows_is_a_simulation_error():
+    """``c2 = x k / (e v0)`` with ``x < 1`` is 1e6 / (5 · 2.2e-308): past the float range."""
+    with pytest.raises(lsc.SimulationError) as info:
+        lsc.solve(_scene("brach", MIN_RESTITUTION), method="scipy")
+    assert str(info.value) == "contact 0 at t = 0 s: " + lsc.laws._common.STATUS[4]
