@@ -24,7 +24,7 @@ def _refusal(e):
     return (f"contacts[0].restitution: a damping law's target restitution must be in "
             f"[2.2250738585072014e-308, 1] (e = 0 needs an infinite damping; below the smallest "
             f"normal float64 the laws' dampings overflow: Hunt-Crossley's a tends to 1/e, "
-            f"Kelvin's ratio to exp(-ln(e)/2)/2), got {e!r}")
+            f"Kelvin's ratio to 1/(2 sqrt(e))), got {e!r}")
 
 
 def test_the_limit_is_the_smallest_normal_float():

@@ -54,7 +54,7 @@ def _target_restitution(e: float) -> str | None:
         return (f"a damping law's target restitution must be in [{MIN_RESTITUTION!r}, 1] "
                 "(e = 0 needs an infinite damping; below the smallest normal float64 the laws' "
                 "dampings overflow: Hunt-Crossley's a tends to 1/e, Kelvin's ratio to "
-                f"exp(-ln(e)/2)/2), got {e!r}")
+                f"1/(2 sqrt(e))), got {e!r}")
     return None
 
 

@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 
-__all__ = ["MIN_RESTITUTION", "kelvin_restitution", "kelvin_dlne_dzeta", "kelvin_zeta", "hunt_crossley_a",
-           "brach_restitution", "brach_c2"]
+__all__ = ["MIN_RESTITUTION", "kelvin_restitution", "kelvin_dlne_dzeta", "kelvin_zeta",
+           "hunt_crossley_a", "brach_restitution", "brach_c2"]
 
 #: The smallest target restitution the spring–dashpot relations convert: the smallest normal
 #: float64 (2.2250738585072014e-308). Below it Hunt–Crossley's root ``a ≈ 1/e`` overflows and
-#: Kelvin's ``ζ ≈ exp(-ln(e)/2)/2`` is past where ``ζ²`` overflows; ``e`` itself, subnormal, has
+#: Kelvin's ``ζ ≈ 1/(2√e)`` is past where ``ζ²`` overflows; ``e`` itself, subnormal, has
 #: lost its relative precision.
 MIN_RESTITUTION = float(np.finfo(float).tiny)
 
