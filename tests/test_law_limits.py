@@ -71,3 +71,53 @@ def test_brach_restitution_whose_c2_overflows_is_a_simulation_error():
     with pytest.raises(lsc.SimulationError) as info:
         lsc.solve(_scene("brach", MIN_RESTITUTION), method="scipy")
     assert str(info.value) == "contact 0 at t = 0 s: " + lsc.laws._common.STATUS[4]
+
+
+@pytest.mark.parametrize("e", [0.999, 0.5, 0.1, 0.03, 0.01, 1e-3, 1e-6, 1e-100])
+def test_hunt_crossley_slope_is_the_roots_derivative_at_low_restitution(e):
+    """``da/de`` (the slope autodiff of a target restitution uses) against a central difference
+    of the root; below e ≈ 0.03 ``1 - a e`` underflows to 0 and the slope is ``-a/e``."""
+    from lsc.laws.damping import HuntCrossleyLaw
+
+    h = 1e-6 * e
+    fd = (hunt_crossley_a(e + h) - hunt_crossley_a(e - h)) / (2 * h)
+    assert HuntCrossleyLaw.da_de(e, hunt_crossley_a(e)) == pytest.approx(fd, rel=1e-7)
+
+
+@pytest.mark.parametrize("e", [0.9, 0.135, 1e-3, 1e-100, 1e-200])
+def test_kelvin_slope_is_the_roots_derivative_at_low_restitution(e):
+    """``dζ/de`` against a central difference of the root (ζ ≈ 1/(2√e) at a small ``e``)."""
+    from lsc.laws.damping import KelvinLaw
+
+    h = 1e-6 * e
+    fd = (kelvin_zeta(e + h) - kelvin_zeta(e - h)) / (2 * h)
+    assert KelvinLaw.dzeta_de(e, kelvin_zeta(e)) == pytest.approx(fd, rel=1e-7)
+
+
+def test_kelvin_log_slope_at_a_huge_damping_ratio():
+    """``d ln e/dζ = -2(ζ/(ζ²-1) - arccosh ζ/(ζ²-1)^1.5)`` → ``-2/ζ``: finite up to the ζ of
+    MIN_RESTITUTION (``(ζ² - 1)^1.5`` itself overflows, and used to raise OverflowError)."""
+    from lsc.laws.relations import kelvin_dlne_dzeta
+
+    for z in (1e110, 1e150, kelvin_zeta(MIN_RESTITUTION)):
+        assert kelvin_dlne_dzeta(z) == pytest.approx(-2 / z, rel=1e-12)
+
+
+@pytest.mark.parametrize("law, e, what, asymptote", [
+    ("hunt-crossley", 1e-160, "Hunt-Crossley's a", "-1/e^2"),
+    ("hunt-crossley", 1e-300, "Hunt-Crossley's a", "-1/e^2"),
+    ("kelvin", 1e-300, "Kelvin's damping ratio", "-1/(4 e^1.5)")])
+def test_slope_past_the_float_range_is_a_simulation_error(law, e, what, asymptote):
+    """``da/de ≈ -1/e²`` (Hunt–Crossley) and ``dζ/de ≈ -1/(4 e^1.5)`` (Kelvin) overflow below
+    e ≈ 1.3e-154 and 1e-205: autodiff through them says so (it used to raise ZeroDivisionError
+    or give inf)."""
+    from lsc.laws.damping import HuntCrossleyLaw, KelvinLaw
+
+    slope, root = ((HuntCrossleyLaw.da_de, hunt_crossley_a) if law == "hunt-crossley"
+                   else (KelvinLaw.dzeta_de, kelvin_zeta))
+    with pytest.raises(lsc.SimulationError) as info:
+        slope(e, root(e))
+    assert str(info.value) == (
+        f"the derivative of {what} with respect to the target restitution (about {asymptote}) "
+        f"is past the float64 range at e = {e!r}, so forward-mode autodiff through it has no "
+        "derivative: use method=\"finite-difference\", or a larger restitution")

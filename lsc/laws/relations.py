@@ -7,8 +7,10 @@ import math
 
 import numpy as np
 
+from ..errors import SimulationError
+
 __all__ = ["MIN_RESTITUTION", "kelvin_restitution", "kelvin_dlne_dzeta", "kelvin_zeta",
-           "hunt_crossley_a", "brach_restitution", "brach_c2"]
+           "hunt_crossley_a", "brach_restitution", "brach_c2", "finite_slope"]
 
 #: The smallest target restitution the spring–dashpot relations convert: the smallest normal
 #: float64 (2.2250738585072014e-308). Below it Hunt–Crossley's root ``a ≈ 1/e`` overflows and
@@ -46,8 +48,8 @@ def kelvin_dlne_dzeta(z: float) -> float:
     if z < 1:
         s2 = 1.0 - z * z
         return -2.0 * (math.acos(z) / s2 ** 1.5 - z / s2)
-    s2 = z * z - 1.0
-    return -2.0 * (z / s2 - math.acosh(z) / s2 ** 1.5)
+    s2 = z * z - 1.0   # finite for every ζ of a restitution >= MIN_RESTITUTION (ζ <= 3.4e153)
+    return -2.0 * (z / s2 - math.acosh(z) / s2 / math.sqrt(s2))   # (s2 ** 1.5 overflows)
 
 
 def kelvin_zeta(e: float) -> float:
@@ -150,3 +152,12 @@ def _brach_x(R, xp):
     return 0.5 * (lo + hi)
 
 
+def finite_slope(slope: float, what: str, law: str, e: float) -> float:
+    """``slope`` (a conversion's ``d/de``, for autodiff), or the SimulationError that says it is
+    past the float range (``law``: its asymptote, as text)."""
+    if not math.isfinite(slope):
+        raise SimulationError(f"the derivative of {what} with respect to the target restitution "
+                              f"(about {law}) is past the float64 range at e = {e!r}, so "
+                              "forward-mode autodiff through it has no derivative: use "
+                              "method=\"finite-difference\", or a larger restitution")
+    return slope
