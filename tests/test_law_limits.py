@@ -121,3 +121,20 @@ def test_slope_past_the_float_range_is_a_simulation_error(law, e, what, asymptot
         f"the derivative of {what} with respect to the target restitution (about {asymptote}) "
         f"is past the float64 range at e = {e!r}, so forward-mode autodiff through it has no "
         "derivative: use method=\"finite-difference\", or a larger restitution")
+
+
+def test_autodiff_of_a_target_restitution_at_low_restitution():
+    """Forward-mode autodiff of the conversion (what a sensitivity to a target restitution
+    uses): the tangent ``-a/e`` at e = 0.01, and at e = 1e-200 the SimulationError itself, not
+    JAX's runtime error around it (or, before, a ZeroDivisionError inside it)."""
+    jax = pytest.importorskip("jax")
+    from lsc.laws.damping import HuntCrossleyLaw, traced_root
+
+    def a_of(v):
+        return traced_root(hunt_crossley_a, HuntCrossleyLaw.da_de, v)
+
+    with jax.enable_x64(True):
+        a, da = jax.jvp(a_of, (0.01,), (1.0,))
+        assert float(da) == pytest.approx(-float(a) / 0.01, rel=1e-12)
+        with pytest.raises(lsc.SimulationError, match="past the float64 range at e = 1e-200"):
+            jax.jvp(a_of, (1e-200,), (1.0,))

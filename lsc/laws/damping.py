@@ -315,7 +315,9 @@ def traced_root(fn, slope, values):
     def _(primals, tangents):
         (v,), (dv,) = primals, tangents
         y = root(v)
-        return y, call(slope, v, y) * dv
+        if isinstance(v, jax.core.Tracer):   # under jit: on the host, inside the computation
+            return y, call(slope, v, y) * dv
+        return y, jnp.asarray(host(slope, v, y)) * dv   # eager: its errors raised as they are
 
     return root(jnp.asarray(values, float))
 
