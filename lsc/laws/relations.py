@@ -158,6 +158,6 @@ def finite_slope(slope: float, what: str, law: str, e: float) -> float:
     if not math.isfinite(slope):
         raise SimulationError(f"the derivative of {what} with respect to the target restitution "
                               f"(about {law}) is past the float64 range at e = {e!r}, so "
-                              "forward-mode autodiff through it has no derivative: use "
-                              "method=\"finite-difference\", or a larger restitution")
+                              "forward-mode autodiff through it has no derivative (nor do "
+                              "differences resolve one): give a larger restitution")
     return slope
