@@ -29,8 +29,8 @@ STATUS = {
     3: ("the unloading branch returns more energy than the loading branch absorbed (restitution "
         "above 1): make the unloading stiffer than the loading curve"),
     4: ("Brach's law cannot reach the requested restitution at this closing speed with its "
-        "compression damping c1 (no restoring damping c2 >= 0 gives it): lower the damping or "
-        "raise the restitution"),
+        "compression damping c1 (no restoring damping c2 >= 0 gives it, or the one that would "
+        "is past the float range, c2 ~ k/(e v)): lower the damping or raise the restitution"),
     5: ("the post-failure loading table ends before the vehicles reach a common velocity (the "
         "crash needs more deformation after the bumper failed than failure.post_failure gives). "
         "Extend that table, or scale its forces up (`scale = ...` in failure.post_failure)"),

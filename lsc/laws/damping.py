@@ -19,7 +19,8 @@ from ..units import register_kind
 from ._common import MODE_LOADING, MODE_OPEN, MODE_UNLOADING, Param
 from ._common import select as _sel
 from ._common import smooth_min as _min
-from .relations import brach_c2, hunt_crossley_a, kelvin_dlne_dzeta, kelvin_zeta
+from .relations import (MIN_RESTITUTION, brach_c2, finite_slope, hunt_crossley_a,
+                        kelvin_dlne_dzeta, kelvin_zeta)
 
 __all__ = ["Damping", "SpringDashpotLaw", "KelvinLaw", "HuntCrossleyLaw", "BrachLaw"]
 
@@ -49,9 +50,11 @@ class Damping:
 
 
 def _target_restitution(e: float) -> str | None:
-    if not 0 < e <= 1:
-        return ("a damping law's target restitution must be in (0, 1] (e = 0 needs an infinite "
-                f"damping), got {e:g}")
+    if not MIN_RESTITUTION <= e <= 1:
+        return (f"a damping law's target restitution must be in [{MIN_RESTITUTION!r}, 1] "
+                "(e = 0 needs an infinite damping; below the smallest normal float64 the laws' "
+                "dampings overflow: Hunt-Crossley's a tends to 1/e, Kelvin's ratio to "
+                f"1/(2 sqrt(e))), got {e!r}")
     return None
 
 
@@ -60,7 +63,7 @@ STIFFNESS = Param("stiffness", "stiffness", "k: force/length (Hunt–Crossley: f
                   minimum=0.0)
 RESTITUTION = Param("restitution", "dimensionless", "the target coefficient of restitution e, "
                     "converted to the damping by the law's own relation", default=None,
-                    check=_target_restitution, schema=(0, True, 1))
+                    check=_target_restitution, schema=(MIN_RESTITUTION, False, 1))
 
 
 def _one_of_damping_or_restitution(law: str) -> str:
@@ -312,7 +315,9 @@ def traced_root(fn, slope, values):
     def _(primals, tangents):
         (v,), (dv,) = primals, tangents
         y = root(v)
-        return y, call(slope, v, y) * dv
+        if isinstance(v, jax.core.Tracer):   # under jit: on the host, inside the computation
+            return y, call(slope, v, y) * dv
+        return y, jnp.asarray(host(slope, v, y)) * dv   # eager: its errors raised as they are
 
     return root(jnp.asarray(values, float))
 
@@ -349,8 +354,11 @@ class KelvinLaw(SpringDashpotLaw):
     @staticmethod
     def dzeta_de(e: float, zeta: float) -> float:
         """``dζ/de`` of the target-restitution conversion (implicit function theorem on
-        ``ln e = -2ζ arccos ζ / √(1-ζ²)``): ``1 / (e · d ln e/dζ)``; ``-1/π`` at ``e = 1``."""
-        return 1.0 / (e * kelvin_dlne_dzeta(zeta))
+        ``ln e = -2ζ arccos ζ / √(1-ζ²)``): ``1 / (e · d ln e/dζ)``; ``-1/π`` at ``e = 1``.
+        Below e ≈ 1e-205 the derivative ``≈ -1/(4 e^1.5)`` is past the float range: a
+        :class:`~lsc.SimulationError`."""
+        return finite_slope(1.0 / e / kelvin_dlne_dzeta(zeta), "Kelvin's damping ratio",
+                             "-1/(4 e^1.5)", e)
 
     def spring_force(self, D, Ddot, st):
         return st["k"] * D + st["c"] * Ddot
@@ -388,13 +396,16 @@ class HuntCrossleyLaw(SpringDashpotLaw):
     @staticmethod
     def da_de(e: float, a: float) -> float:
         """``da/de`` of the target-restitution conversion (implicit function theorem on
-        ``R = a (1+e) - ln[(1+a)/(1-a e)] = 0``): ``-R_e / R_a``; at ``e = 1`` (``a = 0``) the
-        limit of ``a ≈ 3(1 - e²) / (2(1 + e³))``, ``-3/2``."""
+        ``R = a (1+e) - ln[(1+a)/(1-a e)] = 0``): ``-R_e / R_a``, both times ``q = 1 - a e``
+        (which underflows to 0 below e ≈ 0.03: the limit ``-a/e``), ``a² e / ((1 + e - 1/(1+a))
+        q - e)``; at ``e = 1`` (``a = 0``) the limit of ``a ≈ 3(1 - e²) / (2(1 + e³))``,
+        ``-3/2``. Below e ≈ 1.3e-154 the derivative ``≈ -1/e²`` is past the float range: a
+        :class:`~lsc.SimulationError`."""
         if a <= 1e-6:
             return -1.5
-        R_a = (1 + e) - 1 / (1 + a) - e / (1 - a * e)
-        R_e = a - a / (1 - a * e)
-        return -R_e / R_a
+        q = 1.0 - a * e
+        return finite_slope(a * e * (a / ((1 + e - 1 / (1 + a)) * q - e)), "Hunt-Crossley's a",
+                             "-1/e^2", e)
 
     def extra_state(self, p, xp):
         return {"n": xp.asarray(p["n"], float)}

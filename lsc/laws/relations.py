@@ -7,8 +7,24 @@ import math
 
 import numpy as np
 
-__all__ = ["kelvin_restitution", "kelvin_dlne_dzeta", "kelvin_zeta", "hunt_crossley_a",
-           "brach_restitution", "brach_c2"]
+from ..errors import SimulationError
+
+__all__ = ["MIN_RESTITUTION", "kelvin_restitution", "kelvin_dlne_dzeta", "kelvin_zeta",
+           "hunt_crossley_a", "brach_restitution", "brach_c2", "finite_slope"]
+
+#: The smallest target restitution the spring–dashpot relations convert: the smallest normal
+#: float64 (2.2250738585072014e-308). Below it Hunt–Crossley's root ``a ≈ 1/e`` overflows and
+#: Kelvin's ``ζ ≈ 1/(2√e)`` is past where ``ζ²`` overflows; ``e`` itself, subnormal, has
+#: lost its relative precision.
+MIN_RESTITUTION = float(np.finfo(float).tiny)
+
+
+def _check_target(e: float, law: str) -> None:
+    if not 0 < e <= 1:
+        raise ValueError(f"the {law} target restitution must be in (0, 1], got {e!r}")
+    if e < MIN_RESTITUTION:
+        raise ValueError(f"the {law} target restitution must be at least MIN_RESTITUTION = "
+                         f"{MIN_RESTITUTION!r} (its damping overflows below it), got {e!r}")
 
 
 def kelvin_restitution(zeta):
@@ -32,15 +48,17 @@ def kelvin_dlne_dzeta(z: float) -> float:
     if z < 1:
         s2 = 1.0 - z * z
         return -2.0 * (math.acos(z) / s2 ** 1.5 - z / s2)
-    s2 = z * z - 1.0
-    return -2.0 * (z / s2 - math.acosh(z) / s2 ** 1.5)
+    s2 = z * z - 1.0   # finite for every ζ of a restitution >= MIN_RESTITUTION (ζ <= 3.4e153)
+    return -2.0 * (z / s2 - math.acosh(z) / s2 / math.sqrt(s2))   # (s2 ** 1.5 overflows)
 
 
 def kelvin_zeta(e: float) -> float:
-    """The damping ratio ζ whose Kelvin restitution is ``e`` (``0 < e <= 1``)."""
+    """The damping ratio ζ whose Kelvin restitution is ``e``
+    (``MIN_RESTITUTION <= e <= 1``)."""
     from scipy.optimize import brentq
 
-    if e >= 1:
+    _check_target(e, "Kelvin")
+    if e == 1:
         return 0.0
     hi = 1.0
     while float(kelvin_restitution(hi)) > e:
@@ -50,8 +68,9 @@ def kelvin_zeta(e: float) -> float:
 
 
 def hunt_crossley_a(e: float) -> float:
-    """``a = α v0`` of the Hunt–Crossley law for restitution ``e`` (``0 < e <= 1``, any
-    exponent): the positive root of ``a (1 + e) = ln[(1 + a) / (1 - a e)]``, to a few ulps.
+    """``a = α v0`` of the Hunt–Crossley law for restitution ``e``
+    (``MIN_RESTITUTION <= e <= 1``, any exponent): the positive root of
+    ``a (1 + e) = ln[(1 + a) / (1 - a e)]``, to a few ulps.
 
     The relation is solved in the form that resolves it: for a small root (``e`` near 1,
     ``a <= 1/2``) as the series :func:`_hc_series` of ``[ln(1 + a) - ln(1 - a e) - a (1 + e)] / a²``
@@ -62,8 +81,7 @@ def hunt_crossley_a(e: float) -> float:
     ``(0, (1 + e)/e]``."""
     from scipy.optimize import brentq
 
-    if not 0 < e <= 1:
-        raise ValueError(f"the Hunt-Crossley target restitution must be in (0, 1], got {e!r}")
+    _check_target(e, "Hunt-Crossley")
     if e == 1:
         return 0.0
     tol = dict(xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500)
@@ -83,7 +101,8 @@ def _hc_series(a, e):
     for ``0 <= a <= 1/2`` (the even coefficients ``e^n - 1`` from ``expm1``, without
     cancellation)."""
     n = np.arange(2, 60)
-    coef = np.where(n % 2 == 1, 1.0 + e ** n, np.expm1(n * np.log1p(-(1.0 - e))))
+    with np.errstate(divide="ignore"):   # e below eps: log1p(-1) = -inf, expm1(-inf) = -1
+        coef = np.where(n % 2 == 1, 1.0 + e ** n, np.expm1(n * np.log1p(-(1.0 - e))))
     return float(np.sum(a ** (n - 2) * coef / n))
 
 
@@ -105,11 +124,21 @@ def brach_restitution(k, c1, c2, v0, mu):
 
 def brach_c2(k, c1, e, v0, mu, xp):
     """The restoring coefficient ``c2`` that gives Brach's law restitution ``e`` at closing speed
-    ``v0`` (array code: a fixed bisection on ``x = c2 e v0 / k`` in [0, 1))."""
+    ``v0`` (array code: a fixed bisection on ``x = c2 e v0 / k`` in [0, 1)), and whether it
+    exists: some ``c2 >= 0`` gives ``e`` (``c1`` not too large) and it is a finite float."""
     u1 = c1 * v0 / k
     r1 = xp.where(xp.abs(u1) < 1e-6, 0.5 - u1 / 3 + u1 * u1 / 4,
                   (u1 - xp.log1p(u1)) / xp.where(u1 == 0, 1.0, u1 * u1))
-    R = r1 / (e * e)
+    with np.errstate(divide="ignore", over="ignore"):   # a tiny e: R = inf, c2 = inf (refused)
+        R = r1 / (e * e)
+        c2 = _brach_x(R, xp) * k / (e * v0)
+    # a c2 past the float range is no restoring coefficient
+    return c2, (R >= 0.5 - 1e-15) & (c2 < np.finfo(float).max)
+
+
+def _brach_x(R, xp):
+    """``x`` in [0, 1) with ``(-x - ln(1 - x)) / x² = R`` (a fixed bisection; 1 once ``R`` is past
+    what float64 ``x`` resolves)."""
 
     def h(x):
         return xp.where(x < 1e-6, 0.5 + x / 3 + x * x / 4,
@@ -120,7 +149,15 @@ def brach_c2(k, c1, e, v0, mu, xp):
         mid = 0.5 * (lo + hi)
         up = h(mid) < R
         lo, hi = xp.where(up, mid, lo), xp.where(up, hi, mid)
-    x = 0.5 * (lo + hi)
-    return x * k / (e * v0), R >= 0.5 - 1e-15
+    return 0.5 * (lo + hi)
 
 
+def finite_slope(slope: float, what: str, law: str, e: float) -> float:
+    """``slope`` (a conversion's ``d/de``, for autodiff), or the SimulationError that says it is
+    past the float range (``law``: its asymptote, as text)."""
+    if not math.isfinite(slope):
+        raise SimulationError(f"the derivative of {what} with respect to the target restitution "
+                              f"(about {law}) is past the float64 range at e = {e!r}, so "
+                              "forward-mode autodiff through it has no derivative (nor do "
+                              "differences resolve one): give a larger restitution")
+    return slope
