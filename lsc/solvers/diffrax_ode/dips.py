@@ -142,8 +142,12 @@ class EventSearch:
                 newton_t = t - g / jnp.where(dg != 0, dg, 1.0)
                 inside = (dg != 0) & (newton_t > a) & (newton_t < b)
                 # done: on the surface to ROOT_GTOL (a crossing that grazes it has a time that
-                # is ill-conditioned, but a state that is not), or a Newton step below tol
-                done = ~crossed | (jnp.abs(g) <= ROOT_GTOL) | (jnp.abs(g) <= tol * jnp.abs(dg))
+                # is ill-conditioned, but a state that is not), or a Newton step below tol;
+                # never where it is above the surface and rising: that is no crossing (a
+                # contact that separated a rounding error above its permanent set, moving
+                # apart: its closing event a hair ahead at the step's start is not a root)
+                near = (jnp.abs(g) <= ROOT_GTOL) | (jnp.abs(g) <= tol * jnp.abs(dg))
+                done = ~crossed | (near & ~((g > 0) & (dg > 0)))
                 # Newton inside the bracket, else bisection (unless done: then stay)
                 tn = jnp.where(inside, newton_t, jnp.where(done, t, 0.5 * (a + b)))
                 tn = jnp.where((g == 0) | ~crossed, t, tn)
