@@ -109,7 +109,10 @@ class EventSearch:
         ``> 0`` at ``tp``) is located by Newton's method kept inside its bracket (regula falsi
         start, bisection when Newton leaves the bracket); the earliest root wins, unless another
         event is already past its surface there (it crossed and came back within the step): then
-        the search is repeated up to that root. Polish: re-take
+        the search is repeated up to that root. A point above the surface and rising is never
+        taken as the root, however close to zero (an event that starts the segment a rounding
+        error ahead of its surface, moving away, and crosses it later in the step: the closing
+        event of a contact just separated at its permanent set). Polish: re-take
         the step from ``tp`` to it, then one Newton step ``δ = -g/ġ`` (``ġ = ∇g·f``) with
         ``y* = y + δ f + δ²/2 f'``: the interpolant's error moves the root by a tiny ``δ``, so
         the remainder is below round-off.
