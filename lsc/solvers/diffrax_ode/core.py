@@ -29,7 +29,10 @@ start at exactly ``1e-12``: it fires only once the state moves ``1e-12`` (relati
 it (a contact that must close at once: a chain touching at rest), never because of round-off at the
 restart on the surface just left (``D_max - D`` after the common velocity). An event that starts
 ahead of its surface, however close, is left as it is: it fires when it is crossed (a rebound of
-restitution 1e-6 is ``1e-12`` of the deformation wide).
+restitution 1e-6 is ``1e-12`` of the deformation wide); a crossing later in the first step is not
+located at its start, where such an event is within the root tolerance of zero but rising (a
+contact that separated a rounding error above its permanent set: see
+:meth:`.dips.EventSearch._locate`).
 
 A :class:`SegmentLoop` runs in two modes: ``record`` (single solves: events, segments and the step
 nodes for a Result) and metrics only (batches and derivatives: the first-impact record and

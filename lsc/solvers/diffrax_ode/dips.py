@@ -109,7 +109,10 @@ class EventSearch:
         ``> 0`` at ``tp``) is located by Newton's method kept inside its bracket (regula falsi
         start, bisection when Newton leaves the bracket); the earliest root wins, unless another
         event is already past its surface there (it crossed and came back within the step): then
-        the search is repeated up to that root. Polish: re-take
+        the search is repeated up to that root. A point above the surface and rising is never
+        taken as the root, however close to zero (an event that starts the segment a rounding
+        error ahead of its surface, moving away, and crosses it later in the step: the closing
+        event of a contact just separated at its permanent set). Polish: re-take
         the step from ``tp`` to it, then one Newton step ``δ = -g/ġ`` (``ġ = ∇g·f``) with
         ``y* = y + δ f + δ²/2 f'``: the interpolant's error moves the root by a tiny ``δ``, so
         the remainder is below round-off.
@@ -142,8 +145,12 @@ class EventSearch:
                 newton_t = t - g / jnp.where(dg != 0, dg, 1.0)
                 inside = (dg != 0) & (newton_t > a) & (newton_t < b)
                 # done: on the surface to ROOT_GTOL (a crossing that grazes it has a time that
-                # is ill-conditioned, but a state that is not), or a Newton step below tol
-                done = ~crossed | (jnp.abs(g) <= ROOT_GTOL) | (jnp.abs(g) <= tol * jnp.abs(dg))
+                # is ill-conditioned, but a state that is not), or a Newton step below tol;
+                # never where it is above the surface and rising: that is no crossing (a
+                # contact that separated a rounding error above its permanent set, moving
+                # apart: its closing event a hair ahead at the step's start is not a root)
+                near = (jnp.abs(g) <= ROOT_GTOL) | (jnp.abs(g) <= tol * jnp.abs(dg))
+                done = ~crossed | (near & ~((g > 0) & (dg > 0)))
                 # Newton inside the bracket, else bisection (unless done: then stay)
                 tn = jnp.where(inside, newton_t, jnp.where(done, t, 0.5 * (a + b)))
                 tn = jnp.where((g == 0) | ~crossed, t, tn)
