@@ -302,29 +302,6 @@ def test_end_of_crash_test_is_the_one_computed_before(seed):
                     _before_is_over(model, y, disc, t, horizon)
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-def test_the_exact_backends_horizon_and_end_of_crash_test_on_floats_are_the_models(seed):
-    """The exact backend's one-scene horizon and end-of-crash test on Python floats
-    (lsc.solvers.exact.single) give the model's numbers and answers, bit for bit: in every
-    discrete state tried, and in it with every contact open (the test then looks at each
-    contact's closing rate and gap)."""
-    from lsc.solvers.exact.single import crash_horizon, is_over
-
-    model = _model(seed)
-    assert repr(crash_horizon(model)) == repr(float(model.horizon()))
-    rng = np.random.default_rng(seed + 2000)
-    for disc in _discs(model):
-        opened = [dict(st, mode=0 * st["mode"]) for st in disc[: model.K]] + disc[model.K:]
-        for d in (disc, opened):
-            for y in _states(model, rng):
-                y = y + 0.0
-                rate = y[model.N:2 * model.N - 1] - y[model.N + 1:2 * model.N]
-                y[model.N] -= rate[0] * rng.choice([1.0, 1.0 - 1e-13])   # contact 0 at rest
-                for t, horizon in ((0.0, model.crash_horizon), (1.0, 2.0), (0.0, 1e30)):
-                    assert is_over(model, y, model.to_python(d), t, horizon) == \
-                        model.is_over(y, d, t, horizon)
-
-
 def test_end_of_crash_test_sees_a_contact_that_closes_again_only_before_the_horizon():
     """Two cars 1 ft apart, the rear one 1 ft/s faster: every contact is open, yet it closes
     again after 1 s, so the crash is over only with a horizon under 1 s."""

@@ -13,7 +13,6 @@ import time
 
 import numpy as np
 
-from ...model import OVER_TOL
 from ..segments import Step, build_result, run_segments
 from .braking import _stop_time, _turning_deformations
 from .kernels import (_PY, _end_force, _force_rise_time, _next_event, _PyMath, _setup,
@@ -26,8 +25,6 @@ class _ScalarTransitions:
     than NumPy on 0-d values. Everything else is the model's own."""
 
     def __init__(self, model):
-        if "crash_horizon" not in model.__dict__:   # (the model's cached property, on floats)
-            model.__dict__["crash_horizon"] = crash_horizon(model)
         self.__dict__.update(model.__dict__)   # its attributes, read without __getattr__
         self._model = model
         # the laws' numbers on Python scalars and lists (read only), once per model
@@ -66,9 +63,12 @@ class _ScalarTransitions:
         return start[0].copy(), [dict(st) for st in start[1]]
 
     def is_over(self, y, disc, t=0.0, horizon=None):
-        """The model's :meth:`~lsc.model.HybridModel.is_over` (:func:`is_over`, on Python
-        floats)."""
-        return is_over(self._model, y, disc, t, horizon)
+        """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
+        open (never over before: its first condition), so not on the NumPy arrays of every
+        segment's end."""
+        if any(st["mode"] for st in disc[: self.K]):
+            return False
+        return self._model.is_over(y, disc, t, horizon)
 
     def apply_event(self, i, t, y, disc, p, xp=None):
         """As ``HybridModel.apply_event``, on Python scalars for the contact laws."""
@@ -243,48 +243,3 @@ def _event_rows(model, ends, floats: bool = True) -> dict:
             a[b.i] = b.accel(net[b.i], p["m"][b.i], disc[K + j], p["brakes"][j])
     return {"t": t, "x": y[:N].T, "v": y[N:2 * N].T, "a": a.T, "deformation": D.T,
             "force": F.T}
-
-
-# ============================================================================ on Python floats
-# One scene's numbers as the model gives them (its array code on NumPy), computed here on Python
-# floats: the same expressions, operation for operation (so the same numbers, bit for bit, as
-# tests/test_model_scales.py and tests/test_exact.py check), without NumPy's cost per call on
-# arrays of a few values.
-def is_over(model, y, disc, t=0.0, horizon=None) -> bool:
-    """:meth:`~lsc.model.HybridModel.is_over` of one scene's state (``y`` (n,), ``disc`` on
-    Python scalars, ``horizon`` [s] default :attr:`~lsc.model.HybridModel.crash_horizon`)."""
-    K, N = model.K, model.N
-    if any(st["mode"] for st in disc[: K + len(model.brakes)]):
-        return False   # a contact closed, or a braked vehicle sliding
-    horizon = model.crash_horizon if horizon is None else horizon
-    y, gap, slow = y.tolist(), model.params["gap"].tolist(), OVER_TOL * model.v_scale
-    for k, law in enumerate(model.laws):
-        D, Dd = y[k] - y[k + 1] - gap[k], y[N + k] - y[N + k + 1]
-        if not (Dd <= slow or law.closing_gap(D, disc[k]) > Dd * (horizon - t)):
-            return False
-    return True
-
-
-def crash_horizon(model) -> float:
-    """:meth:`~lsc.model.HybridModel.horizon` of the scene's own parameters [s]."""
-    p = model.params
-    v0, m, v = p["v0"].tolist(), p["m"].tolist(), model.v_scale   # (speed_scale())
-    w = [a - b for a, b in zip(v0, v0[1:])]
-    w_min = min(x if x > 1e-12 * v else math.inf for x in w)
-    w_min = w_min if math.isfinite(w_min) else v
-    extent = float(p["gap"].sum(axis=-1))
-    for c in p["contacts"]:
-        for key in ("ld", "ud"):   # (a table's last breakpoint: BIG, 1e300, is no extent)
-            if key in c:
-                extent = extent + max(x if x < 1e299 else 0.0
-                                      for x in np.abs(np.ravel(c[key])).tolist())
-    # time_scale(slowest=True): the softest valid slope and the heaviest pair
-    mu = max(a * b / (a + b) for a, b in zip(m, m[1:]))
-    s = [x for c in p["contacts"] for key in ("ls", "su", "k") if key in c
-         for x in np.abs(np.ravel(c[key])).tolist()]
-    if s:
-        k = min((x for x in s if math.isfinite(x) and x > 0), default=math.inf)
-        T = math.sqrt(mu / (k if math.isfinite(k) else 1.0))
-    else:
-        T = math.sqrt(mu)
-    return 1e6 * T + 4.0 * extent / w_min + 1.0
