@@ -189,10 +189,50 @@ def test_chains_with_tables_match_the_tightest_scipy_solve(scene):
                                              t_last)] ==
             [e[1:] for e in _without_touches([(e.time, e.index, e.kind) for e in ref.events],
                                              t_last)])
+    tighter = None
     for name in METRICS:
         a, b = np.asarray(getattr(r, name), float), np.asarray(getattr(ref, name), float)
         err = np.max(np.abs(a - b)) / _scale(ref, name)
-        assert err <= 1e-8, f"{name}: {a} vs {b} (scipy), off by {err:.3g}"
+        if err > 1e-8 and tighter is None:
+            tighter = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=2.5e-14,
+                                max_steps=10**6)
+        # (where the reference itself moves with its tolerance, its uncertainty is measured)
+        spread = 0.0 if tighter is None else (
+            np.max(np.abs(b - np.asarray(getattr(tighter, name), float))) / _scale(ref, name))
+        assert err <= 1e-8 + 2 * spread, \
+            f"{name}: {a} vs {b} (scipy), off by {err:.3g}; SciPy's own spread {spread:.3g}"
+    _check_conservation(r)
+
+
+def test_an_ill_conditioned_chain_is_held_to_the_reference_s_own_uncertainty():
+    """Light cars ringing between stiff contacts for 129 events amplify a relative perturbation
+    of 1e-13 of one speed to 1e-6 of a ΔV (measured with exact-chain itself): SciPy's DOP853 at
+    rtol 1e-10, 1e-11, 1e-12 and 2.5e-14 gives the fifth car's ΔV as 1.7930, 1.80730, 1.810294,
+    1.810353, converging on exact-chain's 1.810336 from below. The comparison with SciPy allows
+    its own spread there (twice the 1e-12 and 2.5e-14 solves' difference), and exact-chain must
+    lie within it: closer to the tightest solve than the 1e-12 one is."""
+    scene = {"units": "US", "vehicles": [
+        {"mass": 652.6586496100139, "speed": 9.995509022611357},
+        {"mass": 49.99999999999999, "speed": 9.995509022611357},
+        {"mass": 49.99999999999999, "speed": 1.0}, {"mass": 49.99999999999999, "speed": 0.0},
+        {"mass": 600.5802545086084, "speed": 0.0}, {"mass": 597.3589978605427, "speed": 0.0}],
+        "contacts": [
+            {"loading": {"table": [[0.0, 0.0], [0.001, 10.45005633846714],
+                                   [0.002, 10.45005633846714], [1000.0, 104500364.83360098]]},
+             "unloading": {"restitution": 0.7}, "gap": 0.6359028716332311},
+            {"loading": {"stiffness": 2310408.6524345097}, "unloading": {"restitution": 1.0},
+             "gap": 1.0},
+            {"loading": {"stiffness": 5980483.651753825}, "unloading": {"restitution": 1.0},
+             "gap": 0.0},
+            {"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}, "gap": 1.0},
+            {"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}, "gap": 1.0}]}
+    r = lsc.solve(scene, method="exact-chain")
+    ref = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12)
+    tight = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=2.5e-14, max_steps=10**6)
+    assert [(e.index, e.kind) for e in r.events] == [(e.index, e.kind) for e in tight.events]
+    ours, theirs = np.abs(r.delta_v - tight.delta_v), np.abs(ref.delta_v - tight.delta_v)
+    assert np.max(theirs) > 1e-6 * closing_scale(r.scene)   # (the reference is not converged)
+    assert np.all(ours <= theirs + 1e-12 * closing_scale(r.scene)), (ours, theirs)
     _check_conservation(r)
 
 
