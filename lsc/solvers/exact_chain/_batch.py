@@ -301,7 +301,7 @@ class _Batch:
         pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
         wild = (np.abs(inc) @ turns.T.astype(int)) > 0
         search = turns.any(axis=1) | ((pushed > 1) | wild).any(axis=0)
-        end = series.at(tau[:, None])[:, :, 0]
+        end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
         top, bottom = np.maximum(c, end), np.minimum(c, end)
         undecided = np.zeros(r.size, bool)
         if search.any():

@@ -2,8 +2,9 @@
 :mod:`._roots`.
 
 Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on windows of
-:data:`WINDOW` steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode), every member on its own
-window, all members in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
+steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode; :data:`WINDOW` / 2 steps first, twice
+as many each window after, up to 64 :data:`WINDOW`), every member on its own window, all members
+in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
 from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
 both exceed that holds no zero; the first interval of a member that does not is either a sign
 change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
@@ -121,9 +122,9 @@ def _earliest(g: Sums, search, start, limit):
     for k in range(MAX_WINDOWS):
         if not live.size:
             break
-        # (windows that double, up to 64 times the first: a member whose event is far
-        # away takes few of them)
-        count = WINDOW << min(k, 6)
+        # (windows that double from half a window, up to 128 times the first: most events
+        # lie within the first few samples, and a member whose event is far away takes few)
+        count = (WINDOW // 2) << min(k, 7)
         t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
                                                    g_start[live], lo[live], step[live],
                                                    limit[live], search[live], count)
