@@ -258,6 +258,7 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
 def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c, lo, hi, xl,
             floor, back, S, C):
     """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
+    act = np.ones(live.size, bool)     # (the brackets still open)
     for k in range(iterations):
         x_k = xl
         tau = xl[:, None]
@@ -284,24 +285,31 @@ def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
         xl = np.where(zero, xl, new)
+        done &= act
         cycle = xl == back[0]
         if cycle.any():
-            cycle &= ~done & (lo == back[1]) & (hi == back[2])
+            cycle &= act & ~done & (lo == back[1]) & (hi == back[2])
         if cycle.any():
             x[live[cycle]] = (xl if (iterations - k - 1) % 2 == 0 else x_k)[cycle]
             done |= cycle
         back = state
         if done.any():
             x[live[done]] = np.where(cycle, x[live], xl)[done]
-            keep = ~done
-            if not keep.any():
+            act &= ~done
+            # (the brackets closed are compacted away once they are half the arrays; until
+            # then they are computed on, unread)
+            n_act = int(np.count_nonzero(act))
+            if not n_act:
                 return x
-            live, rigid, ws, half, al, ga, kal, c, S, C = (
-                live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep], kal[keep],
-                c[keep], S[keep], C[keep])
-            lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
-            back = tuple(a[keep] for a in back)
-    x[live] = xl
+            if 2 * n_act <= act.size:
+                keep = act
+                live, rigid, ws, half, al, ga, kal, c, S, C = (
+                    live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep],
+                    kal[keep], c[keep], S[keep], C[keep])
+                lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
+                back = tuple(a[keep] for a in back)
+                act = np.ones(n_act, bool)
+    x[live[act]] = xl[act]
     return x
 
 
