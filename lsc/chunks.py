@@ -37,12 +37,15 @@ __all__ = ["Task", "solve_task", "run_tasks", "task_size", "slots", "window", "i
 #: so a chunk holds tens of MB at most (and a chunk is long enough to dwarf a scheduler's
 #: per-task overhead, about a millisecond for Dask).
 MAX_TASK = 65_536
-#: Fewest members in a chunk of a batch path spread over workers (below it the scheduler's
-#: overhead per task is no longer small against the chunk's solve).
-MIN_TASK = 4_096
+#: Fewest members in a chunk of a batch path spread over workers: a batch call has a cost that
+#: does not shrink with the chunk (the exact-chain batch's last events, a few members left
+#: each: about a second, the time of some 5,000 members), besides the scheduler's overhead.
+MIN_TASK = 16_384
 #: Chunks per worker slot that a study is cut into when it can: enough for the last chunks to
-#: even out the load, few enough for the overhead to stay small.
-TASKS_PER_SLOT = 4
+#: even out the load, few enough for the overhead per chunk to stay small (random 3-car
+#: chains on the exact-chain batch, 40,000 members on 2 processes: chunks of 20,000 took half
+#: the time of chunks of 5,000, ``scripts/bench_chain_sweep.py``).
+TASKS_PER_SLOT = 2
 #: A Dask task that raises is tried again this many times (a worker that dies is replaced and
 #: its tasks recomputed by the scheduler itself).
 DASK_RETRIES = 2
