@@ -7,10 +7,17 @@ Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): ma
 1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions in [--e-min, 1] (a fifth elastic), gaps of 1e-3 to 1 ft (or none, 40 %), closing speeds 0.1 to
 30 ft/s per pair (or none, 30 %), the front car at rest or moving. The batch hands a member to
 the single solve where its vectorised search cannot decide, or after 200 events (contacts that
-chatter): the count is reported, with the time the batch spends on them.
+chatter): the count is reported, with the time the single solve spends on them (summed over the
+worker processes), and the vectorised path's own throughput without them.
+
+The sweep is run in this process (``--workers 1``) and on a process pool (``--workers 2``:
+``lsc.sweep(..., executor=ProcessPoolExecutor(2))``, chunks of :func:`lsc.chunks.task_size`
+or ``--task-size``), side by side, in wall time; in this process also in its CPU time (the
+figure to compare on a shared machine). (``workers=`` of ``lsc.sweep`` is a control of the
+batched integrator's batch path; the exact-chain batch does not take it.)
 
     python scripts/bench_chain_sweep.py                     # 10^5 members, subset 200
-    python scripts/bench_chain_sweep.py --n 20000 --subset 100 --e-min 0
+    python scripts/bench_chain_sweep.py --n 20000 --subset 100 --e-min 0 --workers 1,2
 """
 
 from __future__ import annotations
