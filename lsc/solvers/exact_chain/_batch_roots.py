@@ -194,11 +194,14 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
             ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
             root = refine(gg.take(mem, jj), ta, tt[mem, ic[mem] + 1], left[mem, jj, ic[mem]],
                           right[mem, jj, ic[mem]])
-            best = np.full(m, np.inf)
-            np.minimum.at(best, mem, root)
-            jbest = np.full(m, F_BIG)
-            np.minimum.at(jbest, mem, np.where(root == best[mem], jj, F_BIG))
-            found_t[todo[r]], found_j[todo[r]] = best[r], jbest[r]
+            # (each member's earliest root, the first function of it: ``mem`` is sorted, and
+            # every member of ``r`` has a bracket)
+            starts = np.flatnonzero(np.r_[True, mem[1:] != mem[:-1]])
+            best = np.minimum.reduceat(root, starts)
+            jbest = np.minimum.reduceat(
+                np.where(root == np.repeat(best, np.diff(np.r_[starts, mem.size])), jj, F_BIG),
+                starts)
+            found_t[todo[r]], found_j[todo[r]] = best, jbest
         if level == LEVELS:
             stuck[todo[deeper]] = True
             break
@@ -385,8 +388,12 @@ def extreme_values(g: Sums, T, largest):
         gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
-        np.fmax.at(top, r, np.max(vals, axis=2))
-        np.fmin.at(bottom, r, np.min(vals, axis=2))
+        if k == 0:     # (r: every member once)
+            np.fmax(top, np.max(vals, axis=2), out=top)
+            np.fmin(bottom, np.min(vals, axis=2), out=bottom)
+        else:
+            np.fmax.at(top, r, np.max(vals, axis=2))
+            np.fmin.at(bottom, r, np.min(vals, axis=2))
         a, c = dv[..., :-1], dv[..., 1:]
         w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
         margin = Bd[r][:, :, None] * w ** 2 / 8.0
