@@ -37,12 +37,16 @@ __all__ = ["Task", "solve_task", "run_tasks", "task_size", "slots", "window", "i
 #: so a chunk holds tens of MB at most (and a chunk is long enough to dwarf a scheduler's
 #: per-task overhead, about a millisecond for Dask).
 MAX_TASK = 65_536
-#: Fewest members in a chunk of a batch path spread over workers (below it the scheduler's
-#: overhead per task is no longer small against the chunk's solve).
-MIN_TASK = 4_096
+#: Fewest members in a chunk of a batch path spread over workers, unless a slot would be left
+#: idle: a batch call has a cost that does not shrink with the chunk (the exact-chain batch's
+#: last events, a few members left each: about a second, the time of some 5,000 members),
+#: besides the scheduler's overhead.
+MIN_TASK = 16_384
 #: Chunks per worker slot that a study is cut into when it can: enough for the last chunks to
-#: even out the load, few enough for the overhead to stay small.
-TASKS_PER_SLOT = 4
+#: even out the load, few enough for the overhead per chunk to stay small (random 3-car
+#: chains on the exact-chain batch, 40,000 members on 2 processes: chunks of 20,000 took half
+#: the time of chunks of 5,000, ``scripts/bench_chain_sweep.py``).
+TASKS_PER_SLOT = 2
 #: A Dask task that raises is tried again this many times (a worker that dies is replaced and
 #: its tasks recomputed by the scheduler itself).
 DASK_RETRIES = 2
@@ -236,15 +240,18 @@ def window(executor) -> int:
 
 def task_size(n: int, executor, batch: bool) -> int:
     """Members per chunk of a study of ``n``: for a batch path, ``n`` cut into
-    :data:`TASKS_PER_SLOT` chunks per slot of ``executor``, within [:data:`MIN_TASK`,
-    :data:`MAX_TASK`] (in this process: :data:`MAX_TASK`); for members solved one by one
-    (milliseconds each), chunks of at most 64."""
+    :data:`TASKS_PER_SLOT` chunks per slot of ``executor``, or into fewer where they would hold
+    less than :data:`MIN_TASK` members each, but as many chunks as slots at least and a whole
+    number per slot (no slot idle at the end), within :data:`MAX_TASK` (in this process:
+    :data:`MAX_TASK`); for members solved one by one (milliseconds each), chunks of at most
+    64."""
     if not batch:
         return max(1, min(64, math.ceil(n / (TASKS_PER_SLOT * slots(executor)))))
     if executor is None:
         return max(1, min(n, MAX_TASK))
-    share = math.ceil(n / (TASKS_PER_SLOT * slots(executor)))
-    return max(1, min(n, MAX_TASK, max(MIN_TASK, share)))
+    s = slots(executor)
+    count = max(s, min(TASKS_PER_SLOT * s, n // MIN_TASK) // s * s)
+    return max(1, min(n, MAX_TASK, math.ceil(n / count)))
 
 
 def _submit(executor, task: Task):

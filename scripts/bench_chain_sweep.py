@@ -7,17 +7,26 @@ Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): ma
 1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions in [--e-min, 1] (a fifth elastic), gaps of 1e-3 to 1 ft (or none, 40 %), closing speeds 0.1 to
 30 ft/s per pair (or none, 30 %), the front car at rest or moving. The batch hands a member to
 the single solve where its vectorised search cannot decide, or after 200 events (contacts that
-chatter): the count is reported, with the time the batch spends on them.
+chatter): the count is reported, with the time the single solve spends on them (summed over the
+worker processes), and the vectorised path's own throughput without them.
+
+The sweep is run in this process (``--workers 1``) and on a process pool (``--workers 2``:
+``lsc.sweep(..., executor=ProcessPoolExecutor(2))``, chunks of :func:`lsc.chunks.task_size`
+or ``--task-size``), side by side, in wall time; in this process also in its CPU time (the
+figure to compare on a shared machine). (``workers=`` of ``lsc.sweep`` is a control of the
+batched integrator's batch path; the exact-chain batch does not take it.)
 
     python scripts/bench_chain_sweep.py                     # 10^5 members, subset 200
-    python scripts/bench_chain_sweep.py --n 20000 --subset 100 --e-min 0
+    python scripts/bench_chain_sweep.py --n 20000 --subset 100 --e-min 0 --workers 1,2
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +44,52 @@ from test_exact_chain_batch import random_chains, rounding  # noqa: E402  (the t
 from test_exact_chain_batch import SCALE_OF  # noqa: E402
 
 
+#: The single solve the batch runs on a member it hands off.
+_SINGLE = _batch.solve_one
+
+
+def _count_alone(shared) -> None:
+    """Wrap the single solve the batch runs on a handed member, adding its wall and CPU time
+    to ``shared`` (a ``multiprocessing`` array: members, time, CPU time); also a pool's
+    initializer, so that the workers' hand-offs are counted too."""
+    original = _SINGLE
+
+    def counted(*args, **kw):
+        start, cpu = time.perf_counter(), time.process_time()
+        try:
+            return original(*args, **kw)
+        finally:
+            with shared.get_lock():
+                shared[0] += 1
+                shared[1] += time.perf_counter() - start
+                shared[2] += time.process_time() - cpu
+
+    _batch.solve_one = counted
+
+
+def _sweep(scene, values, workers: int, task_size):
+    """``(result, wall time, members handed off, their time and CPU time summed over the
+    workers, this process's CPU time)`` of ``lsc.sweep`` with ``workers`` processes (1: this
+    process)."""
+    shared = multiprocessing.Array("d", 3)
+    executor = None
+    if workers > 1:
+        executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                       initializer=_count_alone, initargs=(shared,))
+        list(executor.map(abs, range(4 * workers)))     # (the workers started: not timed)
+    else:
+        _count_alone(shared)
+    try:
+        start, cpu = time.perf_counter(), time.process_time()
+        res = lsc.sweep(scene, values, method="exact-chain", progress=False, executor=executor,
+                        task_size=task_size)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    finally:
+        if executor is not None:
+            executor.shutdown()
+    return res, wall, int(shared[0]), shared[1], shared[2], cpu
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=100_000, help="members of the sweep")
@@ -42,33 +97,34 @@ def main() -> None:
     ap.add_argument("--vehicles", type=int, default=3)
     ap.add_argument("--e-min", type=float, default=0.05, help="lowest restitution")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--workers", default="1,2", help="worker processes to compare (1: this "
+                    "process; more: a process pool as executor=)")
+    ap.add_argument("--task-size", type=int, default=None, help="members per task (default: "
+                    "lsc.chunks.task_size)")
     a = ap.parse_args()
     scene, values = random_chains(a.vehicles, a.n, a.seed, a.e_min)
-    alone = {"members": 0, "time": 0.0, "cpu": 0.0}
-    original = _batch.solve_one   # (the single solve solve_alone runs on a handed member)
-
-    def counted(*args, **kw):
-        start, cpu = time.perf_counter(), time.process_time()
-        try:
-            return original(*args, **kw)
-        finally:
-            alone["members"] += 1
-            alone["time"] += time.perf_counter() - start
-            alone["cpu"] += time.process_time() - cpu
-
-    _batch.solve_one = counted
-    start, cpu = time.perf_counter(), time.process_time()
-    res = lsc.sweep(scene, values, method="exact-chain", progress=False)
-    t_batch, cpu_batch = time.perf_counter() - start, time.process_time() - cpu
-    ok = res.status == "ok"
-    print(f"batch: {a.n} random {a.vehicles}-car chains (e >= {a.e_min}) in {t_batch:.2f} s: "
-          f"{a.n / t_batch:,.0f} members/s; failed {int((~ok).sum())}; handed to the single "
-          f"solve {alone['members']} ({alone['time']:.2f} s of the total)")
-    t_vec, cpu_vec = t_batch - alone["time"], cpu_batch - alone["cpu"]
-    done = a.n - alone["members"]
-    # (the CPU time of this process too: on a shared machine the wall time counts the others')
-    print(f"vectorised path alone: {done} members in {t_vec:.2f} s: {done / t_vec:,.0f} "
-          f"members/s (CPU time {cpu_vec:.2f} s: {done / cpu_vec:,.0f} members/s)")
+    res, t_batch = None, None
+    for workers in (int(w) for w in a.workers.split(",")):
+        got, wall, handed, t_alone, cpu_alone, cpu = _sweep(scene, values, workers, a.task_size)
+        res = got if res is None else res
+        same = all(np.array_equal(got.metrics[k], res.metrics[k], equal_nan=True)
+                   for k in METRICS) and np.array_equal(got.status, res.status)
+        done = a.n - handed
+        # (the single solves' time is summed over the workers: spread over them, it takes
+        # about that sum / workers of the wall time)
+        t_vec = wall - t_alone / workers
+        print(f"workers={workers}: {a.n} random {a.vehicles}-car chains (e >= {a.e_min}) in "
+              f"{wall:.2f} s wall: {a.n / wall:,.0f} members/s; failed "
+              f"{int((res.status != 'ok').sum())}; handed to the single solve {handed} "
+              f"({t_alone:.2f} s summed over the workers); vectorised path alone {done} in "
+              f"~{t_vec:.2f} s: {done / t_vec:,.0f} members/s"
+              + ("" if same else "; NOT the same numbers as the first run"))
+        if workers == 1:
+            # (the CPU time of this process too: on a shared machine the wall time counts the
+            # other processes')
+            print(f"  vectorised path alone, CPU time: {cpu - cpu_alone:.2f} s: "
+                  f"{done / (cpu - cpu_alone):,.0f} members/s")
+        t_batch = wall if workers == 1 else t_batch
     m = min(a.subset, a.n)
     worst, where, beyond = 0.0, None, set()
     start = time.perf_counter()

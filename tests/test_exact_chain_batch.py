@@ -217,3 +217,60 @@ def test_sweep_goes_through_the_batch(monkeypatch):
     for j in (0, 5, 11):
         r = exact_chain.solve(HybridModel(_member(scene, values, j)), n_samples=2)
         assert res.metrics["delta_v"][j] == pytest.approx(r.delta_v, rel=1e-12, abs=1e-12)
+
+
+def test_peaks_taken_at_the_ends_where_no_function_turns():
+    """A segment's peaks are searched only where a force or a middle vehicle's acceleration may
+    turn inside it (a contact unloading, or loaded on both sides of the vehicle); elsewhere the
+    ends give them. On random 3- and 4-car chains, segment by segment, they are the peaks that
+    the search of every loaded contact's force finds (to rounding), the ends taken for many
+    segments; and every member's peak force and acceleration is the single solve's."""
+    original = _batch._Batch._peaks
+    taken = []
+
+    def peaks(self, motion, slope, force, ix, r, tau, monotone):
+        got, unsure = original(self, motion, slope, force, ix, r, tau, monotone)
+        want, unsure_all = original(self, motion, slope, force, ix, r, tau,
+                                    np.zeros_like(monotone))
+        ok = ~unsure & ~unsure_all
+        scale = np.max(np.abs(want), axis=1, keepdims=True)
+        assert np.all(np.abs(got - want)[ok] <= 1e-13 * np.broadcast_to(scale, got.shape)[ok])
+        taken.append(int(np.sum(monotone.any(axis=1))))
+        return got, unsure
+
+    for N, seed in ((3, 23), (4, 29)):
+        scene, values = random_chains(N, 40, seed, e_min=0.05)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(_batch._Batch, "_peaks", peaks)
+            out = exact_chain.solve_batch(HybridModel(scene), values)
+        for j in range(0, 40, 4):
+            r = _single(scene, values, j)
+            for name in ("peak_force", "peak_acceleration"):
+                want, got = np.asarray(getattr(r, name), float), out["metrics"][name][j]
+                tol = 1e-12 * np.max(np.abs(want)) + rounding(r)[name]
+                assert np.all(np.abs(got - want) <= tol), (j, name, want, got)
+    assert sum(taken) > 100
+
+
+@pytest.mark.parametrize("w", [1e-3, 1.0, 37.0, 2.5e3, 1e5])
+def test_the_sampled_basis_is_the_sine_and_cosine_to_a_few_ulps(w):
+    """``S = sin ωτ/ω`` and ``C = (1 - cos ωτ)/ω²`` from one tangent of the half angle
+    (:func:`_batch_modes.half_angle`), against mpmath, from τ = 0 through the half periods
+    (where the tangent is infinite, or nearly) to 1e4 radians."""
+    import mpmath
+    from lsc.solvers.exact_chain._batch_modes import basis
+    angles = np.concatenate([[0.0, 1e-300, 1e-12, 1e-6, 0.5], np.pi * np.arange(1, 8),
+                             np.nextafter(np.pi * 3, 0.0) + 0.0 * np.arange(1),
+                             np.geomspace(1.0, 1e4, 40)])
+    tau = angles / w
+    S, C = basis(np.array([[0.0, w]]), tau[None, :])
+    mpmath.mp.prec = 120
+    for t, s, c in zip(tau.tolist(), S[0, :, 1], C[0, :, 1]):
+        x = mpmath.mpf(w) * mpmath.mpf(t)
+        s_want = mpmath.sin(x) / w
+        c_want = 2 * (mpmath.sin(x / 2) / w) ** 2
+        # (to a few ulps, and to what the rounding of the half angle ωτ/2 moves them by: its
+        # ulps times the derivatives, cos ωτ/ω and S/ω, as for sin and cos of it)
+        assert abs(s - s_want) <= 8e-16 * (abs(s_want) + abs(x * mpmath.cos(x)) / w), t
+        assert abs(c - c_want) <= 8e-16 * (abs(c_want) + abs(x * s_want) / w) + 1e-300, t
+    assert np.all(S[0, :, 0] == tau) and np.all(C[0, :, 0] == 0.5 * tau * tau)

@@ -202,7 +202,11 @@ class _Batch:
         look = keep & ongoing.any(axis=1)
         if look.any():
             r = np.flatnonzero(look)
-            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r])
+            # (a contact loading all along: its closing rate >= 0 up to its own zero, which
+            # ends the segment; not where that rate stays on its surface, start NaN)
+            rate_start = start[:, 2::3][r]
+            monotone = (S("vm")[r] != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
+            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone)
             keep[r[unsure]] = False
             F_pk = np.zeros((b, K))
             a_pk = np.zeros((b, N))
@@ -266,13 +270,17 @@ class _Batch:
                  motion.kappa, motion.w)
         return g, np.stack(armed, axis=1), np.stack(tol, axis=1)
 
-    def _peaks(self, motion, slope, force, ix, r, tau):
+    def _peaks(self, motion, slope, force, ix, r, tau, monotone):
         """Each contact's largest force and each vehicle's acceleration of largest magnitude
         (signed) over ``[0, τ]`` of members ``r``: ``(peaks (m, K + N), undecided (m,))`` (as
         :meth:`._solve._Chain._peaks`). The extrema are searched on the forces and on the
         accelerations of the vehicles between two contacts; the end vehicles' accelerations
         are their one contact's force over their mass, whose value of largest magnitude is the
-        force's, scaled."""
+        force's, scaled. Only where one of them may have an extremum inside ``[0, τ]``: a
+        contact with no slope has a constant force, one loading all along (``monotone`` (m,
+        K): its deformation rises up to the segment's end) a monotone one, and a vehicle
+        pushed by one such force and a constant one a monotone acceleration; a member whose
+        functions are all such takes its extremes at the two ends."""
         K, N = self.K, self.N
         P = motion.P[r]
         rows = slope[r][:, :, None] * P                                    # (m, K, N)
@@ -286,7 +294,19 @@ class _Batch:
         gamma = np.concatenate([fg, np.einsum("nk,mkj->mnj", inc, fg) / mass], axis=1)
         series = Sums(c, alpha, gamma, motion.kappa[r], motion.w[r])
         largest = np.arange(K + N - 2) < K
-        top, bottom, undecided = extreme_values(series, tau, largest)
+        # the functions that may turn inside [0, τ]: a sloped force not loading all along; a
+        # middle vehicle's acceleration between two sloped contacts or one such force
+        loaded = slope[r] != 0
+        turns = loaded & ~monotone
+        pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
+        wild = (np.abs(inc) @ turns.T.astype(int)) > 0
+        search = turns.any(axis=1) | ((pushed > 1) | wild).any(axis=0)
+        end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
+        top, bottom = np.maximum(c, end), np.minimum(c, end)
+        undecided = np.zeros(r.size, bool)
+        if search.any():
+            q = np.flatnonzero(search)
+            top[q], bottom[q], undecided[q] = extreme_values(series.take(q), tau[q], largest)
         signed = np.where(np.abs(top) >= np.abs(bottom), top, bottom)
         # (contact 0 pushes vehicle 0 back, contact K - 1 pushes vehicle N - 1 forward)
         return np.concatenate([top[:, :K], -signed[:, :1] / m[:, :1], signed[:, K:],

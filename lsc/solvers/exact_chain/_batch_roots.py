@@ -2,8 +2,9 @@
 :mod:`._roots`.
 
 Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on windows of
-:data:`WINDOW` steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode), every member on its own
-window, all members in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
+steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode; :data:`WINDOW` / 2 steps first, twice
+as many each window after, up to 64 :data:`WINDOW`), every member on its own window, all members
+in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
 from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
 both exceed that holds no zero; the first interval of a member that does not is either a sign
 change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
@@ -121,9 +122,9 @@ def _earliest(g: Sums, search, start, limit):
     for k in range(MAX_WINDOWS):
         if not live.size:
             break
-        # (windows that double, up to 64 times the first: a member whose event is far
-        # away takes few of them)
-        count = WINDOW << min(k, 6)
+        # (windows that double from half a window, up to 128 times the first: most events
+        # lie within the first few samples, and a member whose event is far away takes few)
+        count = (WINDOW // 2) << min(k, 7)
         t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
                                                    g_start[live], lo[live], step[live],
                                                    limit[live], search[live], count)
@@ -193,11 +194,14 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
             ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
             root = refine(gg.take(mem, jj), ta, tt[mem, ic[mem] + 1], left[mem, jj, ic[mem]],
                           right[mem, jj, ic[mem]])
-            best = np.full(m, np.inf)
-            np.minimum.at(best, mem, root)
-            jbest = np.full(m, F_BIG)
-            np.minimum.at(jbest, mem, np.where(root == best[mem], jj, F_BIG))
-            found_t[todo[r]], found_j[todo[r]] = best[r], jbest[r]
+            # (each member's earliest root, the first function of it: ``mem`` is sorted, and
+            # every member of ``r`` has a bracket)
+            starts = np.flatnonzero(np.r_[True, mem[1:] != mem[:-1]])
+            best = np.minimum.reduceat(root, starts)
+            jbest = np.minimum.reduceat(
+                np.where(root == np.repeat(best, np.diff(np.r_[starts, mem.size])), jj, F_BIG),
+                starts)
+            found_t[todo[r]], found_j[todo[r]] = best, jbest
         if level == LEVELS:
             stuck[todo[deeper]] = True
             break
@@ -257,6 +261,7 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
 def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c, lo, hi, xl,
             floor, back, S, C):
     """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
+    act = np.ones(live.size, bool)     # (the brackets still open)
     for k in range(iterations):
         x_k = xl
         tau = xl[:, None]
@@ -283,24 +288,31 @@ def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
         xl = np.where(zero, xl, new)
+        done &= act
         cycle = xl == back[0]
         if cycle.any():
-            cycle &= ~done & (lo == back[1]) & (hi == back[2])
+            cycle &= act & ~done & (lo == back[1]) & (hi == back[2])
         if cycle.any():
             x[live[cycle]] = (xl if (iterations - k - 1) % 2 == 0 else x_k)[cycle]
             done |= cycle
         back = state
         if done.any():
             x[live[done]] = np.where(cycle, x[live], xl)[done]
-            keep = ~done
-            if not keep.any():
+            act &= ~done
+            # (the brackets closed are compacted away once they are half the arrays; until
+            # then they are computed on, unread)
+            n_act = int(np.count_nonzero(act))
+            if not n_act:
                 return x
-            live, rigid, ws, half, al, ga, kal, c, S, C = (
-                live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep], kal[keep],
-                c[keep], S[keep], C[keep])
-            lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
-            back = tuple(a[keep] for a in back)
-    x[live] = xl
+            if 2 * n_act <= act.size:
+                keep = act
+                live, rigid, ws, half, al, ga, kal, c, S, C = (
+                    live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep],
+                    kal[keep], c[keep], S[keep], C[keep])
+                lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
+                back = tuple(a[keep] for a in back)
+                act = np.ones(n_act, bool)
+    x[live[act]] = xl[act]
     return x
 
 
@@ -376,8 +388,12 @@ def extreme_values(g: Sums, T, largest):
         gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
         S, C = gl.basis(tt)
         vals, dv = gl.on(S, C), dl.on(S, C)
-        np.fmax.at(top, r, np.max(vals, axis=2))
-        np.fmin.at(bottom, r, np.min(vals, axis=2))
+        if k == 0:     # (r: every member once)
+            np.fmax(top, np.max(vals, axis=2), out=top)
+            np.fmin(bottom, np.min(vals, axis=2), out=bottom)
+        else:
+            np.fmax.at(top, r, np.max(vals, axis=2))
+            np.fmin.at(bottom, r, np.min(vals, axis=2))
         a, c = dv[..., :-1], dv[..., 1:]
         w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
         margin = Bd[r][:, :, None] * w ** 2 / 8.0
