@@ -12,8 +12,10 @@ ends that first impact (NaN: not ended); ``v_sep`` (..., K, 2) [velocity]: the s
 magnitude) over that impact; and ``v_max`` (...) [velocity]: the run's largest speed, the scale
 of the pushed-shut test (:data:`lsc.impacts.PUSHED`). The definitions are those of the docs'
 metrics page: each vehicle's headline values come from the first impact of the adjacent contact
-that touched first (ties to the lower contact index); the duration is the scene's first
-impact's; a contact's velocity restitution is NaN where it never touched or was pushed shut.
+that touched first; the duration is the scene's first impact's; a contact's velocity restitution
+is NaN where it never touched or was pushed shut. Closings that the solve cannot order (less than
+:func:`tie_window` apart) are simultaneous: the tie goes to the lower contact index (the rear
+one), whichever way the solve's rounding or tolerance ordered them.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
-           "event_update", "restitution", "in_g", "headline", "metrics"]
+           "event_update", "restitution", "in_g", "tie_window", "TIE_ROUNDING", "headline", "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
@@ -30,6 +32,19 @@ PUSHED = 1e-6
 #: The fields of the first-impact record (see the module docstring).
 FIRST_KEYS = ("contact_time", "v_touch", "first_end", "v_sep", "peak_force", "peak_acc",
               "v_max")
+
+
+#: The relative time resolution of an exact solve (its event times' rounding, a few hundred ulps
+#: after many events): the least ``resolution`` :func:`tie_window` takes.
+TIE_ROUNDING = 1e-13
+
+
+def tie_window(t, span, resolution=0.0, xp=np):
+    """(...) [time]: how far apart two closings can be and still be simultaneous, for a closing
+    at time ``t`` (...) [time] whose impact lasts ``span`` (...) [time], in a solve whose event
+    times are resolved to ``resolution`` [-] (relative; an integrator's ``rtol``, 0 for an
+    exact backend): ``max(resolution, TIE_ROUNDING) * max(|t|, span)``."""
+    return xp.maximum(resolution, TIE_ROUNDING) * xp.maximum(xp.abs(t), span)
 
 
 def pairs(v, xp=np):
@@ -128,26 +143,34 @@ def _by_vehicle(front, back, rear, pad, xp):
                     xp.concatenate([front, pad], axis=-1))
 
 
-def headline(first, t_last, v_last, xp=np) -> dict:
+def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
     """The headline metrics from the record at the end of the run (time ``t_last`` (...),
     speeds ``v_last`` (..., N): the end of a first impact still open then): ``delta_v``,
     ``peak_acceleration`` (..., N) (0 for a vehicle in no impact), ``peak_force``,
-    ``restitution``, ``contact_time`` (..., K) and ``duration`` (...) (0 if nothing touched)."""
+    ``restitution``, ``contact_time`` (..., K) and ``duration`` (...) (0 if nothing touched).
+    ``resolution`` (...) [-]: the solve's relative time resolution (:func:`tie_window`)."""
     ct, t1 = first["contact_time"], first["first_end"]
     touched, ended = ~xp.isnan(ct), ~xp.isnan(t1)
     v_end = xp.where(ended[..., None], first["v_sep"], pairs(v_last, xp))
     dv = xp.where(touched[..., None], v_end - first["v_touch"], 0.0)
-    start = xp.where(touched, ct, xp.inf)
-    # each vehicle: its rear contact (side 1) when that touched first, else its front (side 0)
+    c0 = xp.where(touched, ct, 0.0)
+    span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)
+    tie = xp.where(touched, tie_window(c0, span, xp.asarray(resolution)[..., None], xp), 0.0)
+    # each vehicle: its rear contact (side 1) when that touched first or at the same time (to
+    # the resolution: the lower contact index takes a tie), else its front (side 0)
     no = xp.zeros_like(touched[..., :1])
-    rear = xp.concatenate([no, start[..., :-1] <= start[..., 1:], ~no], axis=-1)
+    same = ~touched[..., 1:] | (touched[..., :-1] & (
+        c0[..., :-1] - c0[..., 1:] <= xp.maximum(tie[..., :-1], tie[..., 1:])))
+    rear = xp.concatenate([no, same, ~no], axis=-1)
     hit = _by_vehicle(touched, touched, rear, no, xp)
 
     def per_vehicle(x):
         return xp.where(hit, _by_vehicle(x[..., 0], x[..., 1], rear, no, xp), 0.0)
 
-    k1 = xp.argmin(start, axis=-1)[..., None]                 # the scene's first impact
-    span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)
+    # the scene's first impact: the lowest contact index among the first closings
+    t_min = xp.min(xp.where(touched, ct, xp.inf), axis=-1, keepdims=True)
+    first_k = touched & (c0 - xp.where(xp.isinf(t_min), 0.0, t_min) <= tie)
+    k1 = xp.argmax(first_k, axis=-1)[..., None]
     duration = _pick(span, k1, xp)[..., 0]
     return {"delta_v": per_vehicle(dv), "peak_acceleration": per_vehicle(first["peak_acc"]),
             "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
@@ -155,7 +178,7 @@ def headline(first, t_last, v_last, xp=np) -> dict:
 
 
 def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
-            separation_time=None) -> dict:
+            separation_time=None, resolution=0.0) -> dict:
     """Every metric of :data:`lsc.result.METRICS` (and ``contact_time``; ``separation_time``
     when given) from the first-impact record ``first`` and the run's records.
 
@@ -163,9 +186,10 @@ def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
     permanent deformation, absorbed and returned energy over the run); ``v_final`` (..., N)
     [velocity] (after the last separation); ``g`` (...) [acceleration]; ``failure_time``
     (..., K) [time] (NaN: never failed); ``t_last``, ``v_last``: as :func:`headline`.
-    ``restitution_energy`` (Eq. 10) is NaN where nothing was absorbed.
+    ``restitution_energy`` (Eq. 10) is NaN where nothing was absorbed. ``resolution`` [-]: the
+    solve's relative time resolution (:func:`tie_window`: its ``rtol``; 0 for an exact one).
     """
-    out = headline(first, t_last, v_last, xp)
+    out = headline(first, t_last, v_last, xp, resolution)
     ec, er = records["ec"], records["er"]
     with np.errstate(invalid="ignore", divide="ignore"):
         e_energy = xp.sqrt(er / ec)
