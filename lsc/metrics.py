@@ -13,9 +13,10 @@ magnitude) over that impact; and ``v_max`` (...) [velocity]: the run's largest s
 of the pushed-shut test (:data:`lsc.impacts.PUSHED`). The definitions are those of the docs'
 metrics page: each vehicle's headline values come from the first impact of the adjacent contact
 that touched first; the duration is the scene's first impact's; a contact's velocity restitution
-is NaN where it never touched or was pushed shut. Closings that the solve cannot order (less than
-:func:`tie_window` apart) are simultaneous: the tie goes to the lower contact index (the rear
-one), whichever way the solve's rounding or tolerance ordered them.
+is NaN where it never touched or was pushed shut. First touches that the solve cannot order (less
+than :func:`tie_window` apart, or a contact pushed shut during its neighbour's first impact:
+:func:`simultaneous_touch`) are simultaneous and make one impact (:func:`headline`), whichever way
+the solve's rounding or tolerance ordered them.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
-           "event_update", "restitution", "in_g", "tie_window", "TIE_ROUNDING", "headline", "metrics"]
+           "event_update", "restitution", "in_g", "tie_window", "TIE_ROUNDING", "simultaneous_touch", "headline",
+           "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
@@ -125,22 +127,32 @@ def in_g(acceleration, g, xp=np):
     return acceleration / xp.asarray(g, dtype=float)[..., None]
 
 
-def _pick(values, index, xp):
-    """``values`` (..., M) at ``index`` (..., P) along the last axis (as a mask, which jax.numpy
-    and NumPy take alike, batched or not, at a fraction of ``take_along_axis``'s cost on
-    small arrays)."""
-    hit = index[..., None] == xp.arange(values.shape[-1])
-    return xp.sum(xp.where(hit, values[..., None, :], 0), axis=-1)
+def _sides(x, pad, xp):
+    """(rear, front) (..., N) of per-contact values ``x`` (..., K): each vehicle's rear
+    contact's and front contact's (``pad`` (..., 1) where it has none)."""
+    return xp.concatenate([pad, x], axis=-1), xp.concatenate([x, pad], axis=-1)
 
 
-def _by_vehicle(front, back, rear, pad, xp):
-    """(..., N): each vehicle's value from its contacts' (..., K) values ``front`` (side 0: the
-    contact's rear vehicle) and ``back`` (side 1: its front vehicle): from its rear contact's
-    ``back`` where ``rear`` (..., N), else from its front contact's ``front``. The first vehicle
-    has no rear contact and the last no front one (``rear`` is False and True there), so the
-    padding ``pad`` (..., 1) (zeros) is never picked."""
-    return xp.where(rear, xp.concatenate([pad, back], axis=-1),
-                    xp.concatenate([front, pad], axis=-1))
+def simultaneous_touch(ct, end, pushed, xp=np):
+    """(..., K) [time]: each contact's first touch ``ct`` (..., K) [time] (NaN: never), or,
+    where it was pushed shut (``pushed`` (..., K)) while a neighbour's first impact went on
+    (from its touch to ``end`` (..., K) [time]), that neighbour's (its compression began with
+    that impact: its own touch time is set by rounding, the deformation growing from zero as
+    a power of time); inf where it never touched."""
+    inf = xp.full(xp.shape(ct)[:-1] + (1,), xp.inf)
+    touched = ~xp.isnan(ct)
+    c0 = xp.where(touched, ct, 0.0)
+    eff = xp.where(touched, ct, xp.inf)
+    for _ in range(ct.shape[-1] - 1):   # (a push passed down a line of touching vehicles)
+        by_rear = pushed[..., 1:] & touched[..., :-1] & (c0[..., :-1] <= c0[..., 1:]) & \
+            (c0[..., 1:] <= end[..., :-1])
+        by_front = pushed[..., :-1] & touched[..., 1:] & (c0[..., 1:] <= c0[..., :-1]) & \
+            (c0[..., :-1] <= end[..., 1:])
+        eff = xp.minimum(eff, xp.concatenate([inf, xp.where(by_rear, eff[..., :-1], xp.inf)],
+                                             axis=-1))
+        eff = xp.minimum(eff, xp.concatenate([xp.where(by_front, eff[..., 1:], xp.inf), inf],
+                                             axis=-1))
+    return eff
 
 
 def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
@@ -148,33 +160,53 @@ def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
     speeds ``v_last`` (..., N): the end of a first impact still open then): ``delta_v``,
     ``peak_acceleration`` (..., N) (0 for a vehicle in no impact), ``peak_force``,
     ``restitution``, ``contact_time`` (..., K) and ``duration`` (...) (0 if nothing touched).
-    ``resolution`` (...) [-]: the solve's relative time resolution (:func:`tie_window`)."""
+
+    Simultaneous first touches (:func:`tie_window` apart at the solve's relative time
+    ``resolution`` (...) [-], or a contact pushed shut during its neighbour's first impact:
+    :func:`simultaneous_touch`) make one impact: a vehicle whose two contacts touch
+    simultaneously has its ΔV from the first touch to the later of their two ends and its
+    peak acceleration over both; the duration spans the scene's simultaneous first impacts."""
     ct, t1 = first["contact_time"], first["first_end"]
     touched, ended = ~xp.isnan(ct), ~xp.isnan(t1)
     v_end = xp.where(ended[..., None], first["v_sep"], pairs(v_last, xp))
-    dv = xp.where(touched[..., None], v_end - first["v_touch"], 0.0)
     c0 = xp.where(touched, ct, 0.0)
-    span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)
-    tie = xp.where(touched, tie_window(c0, span, xp.asarray(resolution)[..., None], xp), 0.0)
-    # each vehicle: its rear contact (side 1) when that touched first or at the same time (to
-    # the resolution: the lower contact index takes a tie), else its front (side 0)
+    end = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]), 0.0)
+    tie = xp.where(touched, tie_window(c0, end - c0, xp.asarray(resolution)[..., None], xp),
+                   0.0)
+    v_touch = first["v_touch"]
+    pushed = touched & ~(v_touch[..., 0] - v_touch[..., 1] > PUSHED * first["v_max"][..., None])
+    eff = simultaneous_touch(ct, end, pushed, xp)
+
+    # each vehicle from its rear contact (side 1) and its front contact (side 0)
     no = xp.zeros_like(touched[..., :1])
-    same = ~touched[..., 1:] | (touched[..., :-1] & (
-        c0[..., :-1] - c0[..., 1:] <= xp.maximum(tie[..., :-1], tie[..., 1:])))
-    rear = xp.concatenate([no, same, ~no], axis=-1)
-    hit = _by_vehicle(touched, touched, rear, no, xp)
+    hit_r, hit_f = _sides(touched, no, xp)
+    (c_r, c_f), (e_r, e_f), (t_r, t_f), (w_r, w_f) = (
+        _sides(x, xp.zeros_like(c0[..., :1]), xp)
+        for x in (c0, end, tie, xp.where(touched, eff, 0.0)))
+    tied = hit_r & hit_f & (xp.abs(w_r - w_f) <= xp.maximum(t_r, t_f))
+    # the first touch (the rear on equal times), and the end: of that impact, or the later one
+    rear = hit_r & (~hit_f | (c_r <= c_f))
+    rear_end = xp.where(tied, e_r >= e_f, rear)
 
-    def per_vehicle(x):
-        return xp.where(hit, _by_vehicle(x[..., 0], x[..., 1], rear, no, xp), 0.0)
+    def side(x, use_rear):
+        r, _ = _sides(x[..., 1], xp.zeros_like(c0[..., :1]), xp)
+        _, f = _sides(x[..., 0], xp.zeros_like(c0[..., :1]), xp)
+        return xp.where(use_rear, r, f)
 
-    # the scene's first impact: the lowest contact index among the first closings
-    t_min = xp.min(xp.where(touched, ct, xp.inf), axis=-1, keepdims=True)
-    first_k = touched & (c0 - xp.where(xp.isinf(t_min), 0.0, t_min) <= tie)
-    k1 = xp.argmax(first_k, axis=-1)[..., None]
-    duration = _pick(span, k1, xp)[..., 0]
-    return {"delta_v": per_vehicle(dv), "peak_acceleration": per_vehicle(first["peak_acc"]),
+    hit = hit_r | hit_f
+    dv = xp.where(hit, side(v_end, rear_end) - side(v_touch, rear), 0.0)
+    a_r, a_f = side(first["peak_acc"], True), side(first["peak_acc"], False)
+    acc = xp.where(tied, xp.where(xp.abs(a_f) > xp.abs(a_r), a_f, a_r),
+                   xp.where(rear, a_r, a_f))
+    # the scene's first impact: every first touch simultaneous with the earliest
+    w_min = xp.min(eff, axis=-1, keepdims=True)
+    group = touched & (eff - xp.where(xp.isinf(w_min), 0.0, w_min) <= tie)
+    duration = xp.where(xp.any(group, axis=-1),
+                        xp.max(xp.where(group, end, -xp.inf), axis=-1)
+                        - xp.min(xp.where(group, c0, xp.inf), axis=-1), 0.0)
+    return {"delta_v": dv, "peak_acceleration": xp.where(hit, acc, 0.0),
             "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
-            "restitution": restitution(first["v_touch"], v_end, first["v_max"][..., None], xp)}
+            "restitution": restitution(v_touch, v_end, first["v_max"][..., None], xp)}
 
 
 def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
