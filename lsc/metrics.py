@@ -15,8 +15,8 @@ metrics page: each vehicle's headline values come from the first impact of the a
 that touched first; the duration is the scene's first impact's; a contact's velocity restitution
 is NaN where it never touched or was pushed shut. First touches that the solve cannot order (less
 than :func:`tie_window` apart, or a contact pushed shut during its neighbour's first impact:
-:func:`simultaneous_touch`) are simultaneous and make one impact (:func:`headline`), whichever way
-the solve's rounding or tolerance ordered them.
+:func:`simultaneous_touch`) are simultaneous: the lower contact index takes the tie, from the first
+of the touches (:func:`headline`), whichever way the solve's rounding or tolerance ordered them.
 """
 
 from __future__ import annotations
@@ -163,9 +163,10 @@ def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
 
     Simultaneous first touches (:func:`tie_window` apart at the solve's relative time
     ``resolution`` (...) [-], or a contact pushed shut during its neighbour's first impact:
-    :func:`simultaneous_touch`) make one impact: a vehicle whose two contacts touch
-    simultaneously has its ΔV from the first touch to the later of their two ends and its
-    peak acceleration over both; the duration spans the scene's simultaneous first impacts."""
+    :func:`simultaneous_touch`) count as one: a vehicle whose two contacts touch
+    simultaneously takes its rear contact's first impact (the lower contact index), from the
+    first of the two touches; the duration is that of the scene's first impact (the lowest
+    contact index among the first touches), from the first of them."""
     ct, t1 = first["contact_time"], first["first_end"]
     touched, ended = ~xp.isnan(ct), ~xp.isnan(t1)
     v_end = xp.where(ended[..., None], first["v_sep"], pairs(v_last, xp))
@@ -184,9 +185,9 @@ def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
         _sides(x, xp.zeros_like(c0[..., :1]), xp)
         for x in (c0, end, tie, xp.where(touched, eff, 0.0)))
     tied = hit_r & hit_f & (xp.abs(w_r - w_f) <= xp.maximum(t_r, t_f))
-    # the first touch (the rear on equal times), and the end: of that impact, or the later one
-    rear = hit_r & (~hit_f | (c_r <= c_f))
-    rear_end = xp.where(tied, e_r >= e_f, rear)
+    # the first touch (the rear on equal times); the impact: that one's, the rear one's if tied
+    first_r = hit_r & (~hit_f | (c_r <= c_f))
+    rear = first_r | tied
 
     def side(x, use_rear):
         r, _ = _sides(x[..., 1], xp.zeros_like(c0[..., :1]), xp)
@@ -194,17 +195,18 @@ def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
         return xp.where(use_rear, r, f)
 
     hit = hit_r | hit_f
-    dv = xp.where(hit, side(v_end, rear_end) - side(v_touch, rear), 0.0)
-    a_r, a_f = side(first["peak_acc"], True), side(first["peak_acc"], False)
-    acc = xp.where(tied, xp.where(xp.abs(a_f) > xp.abs(a_r), a_f, a_r),
-                   xp.where(rear, a_r, a_f))
-    # the scene's first impact: every first touch simultaneous with the earliest
+    dv = xp.where(hit, side(v_end, rear) - side(v_touch, first_r), 0.0)
+    acc = xp.where(hit, side(first["peak_acc"], rear), 0.0)
+    # the scene's first impact: of the first touches simultaneous with the earliest, the lowest
+    # contact index's, from the earliest
     w_min = xp.min(eff, axis=-1, keepdims=True)
     group = touched & (eff - xp.where(xp.isinf(w_min), 0.0, w_min) <= tie)
+    k1 = xp.argmax(group, axis=-1)[..., None]
+    hit1 = k1 == xp.arange(ct.shape[-1])
     duration = xp.where(xp.any(group, axis=-1),
-                        xp.max(xp.where(group, end, -xp.inf), axis=-1)
+                        xp.sum(xp.where(hit1, end, 0.0), axis=-1)
                         - xp.min(xp.where(group, c0, xp.inf), axis=-1), 0.0)
-    return {"delta_v": dv, "peak_acceleration": xp.where(hit, acc, 0.0),
+    return {"delta_v": dv, "peak_acceleration": acc,
             "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
             "restitution": restitution(v_touch, v_end, first["v_max"][..., None], xp)}
 
