@@ -155,6 +155,42 @@ def simultaneous_touch(ct, end, pushed, xp=np):
     return eff
 
 
+def _ties(first, touched, c0, end, v_touch, v_end, resolution, xp):
+    """``delta_v``, ``peak_acceleration`` (..., N) and ``duration`` (...) of a chain (see
+    :func:`headline`), simultaneous first touches taken as one."""
+    tie = xp.where(touched, tie_window(c0, end - c0, xp.asarray(resolution)[..., None], xp),
+                   0.0)
+    pushed = touched & ~(v_touch[..., 0] - v_touch[..., 1] > PUSHED * first["v_max"][..., None])
+    eff = simultaneous_touch(first["contact_time"], end, pushed, xp)
+    w = xp.where(touched, eff, 0.0)
+    # each vehicle from its rear contact (side 1) and its front contact (side 0)
+    no, zero = xp.zeros_like(touched[..., :1]), xp.zeros_like(c0[..., :1])
+    hit_r, hit_f = _sides(touched, no, xp)
+    c_r, c_f = _sides(c0, zero, xp)
+    tie_r, tie_f = _sides(tie, zero, xp)
+    w_r, w_f = _sides(w, zero, xp)
+    tied = hit_r & hit_f & (xp.abs(w_r - w_f) <= xp.maximum(tie_r, tie_f))
+    # the first touch (the rear on equal times); the impact: that one's, the rear one's if tied
+    first_r = hit_r & (~hit_f | (c_r <= c_f))
+    rear = first_r | tied
+
+    def side(x, use_rear):
+        return xp.where(use_rear, _sides(x[..., 1], zero, xp)[0], _sides(x[..., 0], zero, xp)[1])
+
+    hit = hit_r | hit_f
+    dv = xp.where(hit, side(v_end, rear) - side(v_touch, first_r), 0.0)
+    acc = xp.where(hit, side(first["peak_acc"], rear), 0.0)
+    # the scene's first impact: of the first touches simultaneous with the earliest, the lowest
+    # contact index's, from the earliest
+    w_min = xp.min(eff, axis=-1, keepdims=True)
+    group = touched & (eff - xp.where(xp.isinf(w_min), 0.0, w_min) <= tie)
+    k1 = xp.argmax(group, axis=-1)[..., None] == xp.arange(c0.shape[-1])
+    duration = xp.where(xp.any(group, axis=-1),
+                        xp.sum(xp.where(k1, end, 0.0), axis=-1)
+                        - xp.min(xp.where(group, c0, xp.inf), axis=-1), 0.0)
+    return dv, acc, duration
+
+
 def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
     """The headline metrics from the record at the end of the run (time ``t_last`` (...),
     speeds ``v_last`` (..., N): the end of a first impact still open then): ``delta_v``,
@@ -169,43 +205,17 @@ def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
     contact index among the first touches), from the first of them."""
     ct, t1 = first["contact_time"], first["first_end"]
     touched, ended = ~xp.isnan(ct), ~xp.isnan(t1)
+    v_touch = first["v_touch"]
     v_end = xp.where(ended[..., None], first["v_sep"], pairs(v_last, xp))
     c0 = xp.where(touched, ct, 0.0)
-    end = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]), 0.0)
-    tie = xp.where(touched, tie_window(c0, end - c0, xp.asarray(resolution)[..., None], xp),
-                   0.0)
-    v_touch = first["v_touch"]
-    pushed = touched & ~(v_touch[..., 0] - v_touch[..., 1] > PUSHED * first["v_max"][..., None])
-    eff = simultaneous_touch(ct, end, pushed, xp)
-
-    # each vehicle from its rear contact (side 1) and its front contact (side 0)
-    no = xp.zeros_like(touched[..., :1])
-    hit_r, hit_f = _sides(touched, no, xp)
-    (c_r, c_f), (e_r, e_f), (t_r, t_f), (w_r, w_f) = (
-        _sides(x, xp.zeros_like(c0[..., :1]), xp)
-        for x in (c0, end, tie, xp.where(touched, eff, 0.0)))
-    tied = hit_r & hit_f & (xp.abs(w_r - w_f) <= xp.maximum(t_r, t_f))
-    # the first touch (the rear on equal times); the impact: that one's, the rear one's if tied
-    first_r = hit_r & (~hit_f | (c_r <= c_f))
-    rear = first_r | tied
-
-    def side(x, use_rear):
-        r, _ = _sides(x[..., 1], xp.zeros_like(c0[..., :1]), xp)
-        _, f = _sides(x[..., 0], xp.zeros_like(c0[..., :1]), xp)
-        return xp.where(use_rear, r, f)
-
-    hit = hit_r | hit_f
-    dv = xp.where(hit, side(v_end, rear) - side(v_touch, first_r), 0.0)
-    acc = xp.where(hit, side(first["peak_acc"], rear), 0.0)
-    # the scene's first impact: of the first touches simultaneous with the earliest, the lowest
-    # contact index's, from the earliest
-    w_min = xp.min(eff, axis=-1, keepdims=True)
-    group = touched & (eff - xp.where(xp.isinf(w_min), 0.0, w_min) <= tie)
-    k1 = xp.argmax(group, axis=-1)[..., None]
-    hit1 = k1 == xp.arange(ct.shape[-1])
-    duration = xp.where(xp.any(group, axis=-1),
-                        xp.sum(xp.where(hit1, end, 0.0), axis=-1)
-                        - xp.min(xp.where(group, c0, xp.inf), axis=-1), 0.0)
+    end = xp.where(ended, t1, xp.asarray(t_last)[..., None])   # (where touched)
+    if ct.shape[-1] == 1:   # one contact: nothing to tie
+        hit = xp.concatenate([touched, touched], axis=-1)
+        dv = xp.where(hit, (v_end - v_touch)[..., 0, :], 0.0)
+        acc = xp.where(hit, first["peak_acc"][..., 0, :], 0.0)
+        duration = xp.where(touched[..., 0], end[..., 0] - c0[..., 0], 0.0)
+    else:
+        dv, acc, duration = _ties(first, touched, c0, end, v_touch, v_end, resolution, xp)
     return {"delta_v": dv, "peak_acceleration": acc,
             "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
             "restitution": restitution(v_touch, v_end, first["v_max"][..., None], xp)}
