@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SimulationError
-from .metrics import PUSHED, restitution
+from .metrics import PUSHED, restitution, tie_window
 
 __all__ = ["Impact", "find_impacts", "check_resolved", "PUSHED"]
 
@@ -70,9 +70,11 @@ def _parts(kind: str) -> list:
     return kind.split("+")
 
 
-def episodes(events, K: int, t_last: float) -> list[tuple[int, float, float, bool]]:
+def episodes(events, K: int, t_last: float,
+             resolution: float = 0.0) -> list[tuple[int, float, float, bool]]:
     """``(contact, t_start, t_end, separated)`` of every touch → separation episode, in the order
-    of their first touch (ties by contact index)."""
+    of their first touch; touches less than :func:`lsc.metrics.tie_window` apart (the solve's
+    relative time ``resolution`` [-]) are simultaneous, ordered by contact index."""
     open_at = [None] * K
     found = []
     for ev in events:
@@ -83,7 +85,18 @@ def episodes(events, K: int, t_last: float) -> list[tuple[int, float, float, boo
             found.append((ev.index, open_at[ev.index], ev.time, True))
             open_at[ev.index] = None
     found += [(k, t0, t_last, False) for k, t0 in enumerate(open_at) if t0 is not None]
-    return sorted(found, key=lambda e: (e[1], e[0]))
+    found.sort(key=lambda e: (e[1], e[0]))
+    # each run of touches within the tie window of its first one, by contact index
+    out, i = [], 0
+    while i < len(found):
+        t0 = found[i][1]
+        j = i + 1
+        while j < len(found) and found[j][1] - t0 <= max(
+                tie_window(e[1], e[2] - e[1], resolution) for e in (found[i], found[j])):
+            j += 1
+        out += sorted(found[i:j], key=lambda e: e[0])
+        i = j
+    return out
 
 
 def _rows(t: list, t0: float, t1: float) -> range:
@@ -145,8 +158,9 @@ def last_speeds(rows, impacts, v_post) -> np.ndarray:
 
 
 def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
-                 spans=()) -> tuple[Impact, ...]:
-    """Every impact, in order of first touch.
+                 spans=(), resolution=0.0) -> tuple[Impact, ...]:
+    """Every impact, in order of first touch (simultaneous ones, to the solve's relative time
+    ``resolution`` [-], by contact index: :func:`episodes`).
 
     ``rows``: ``t`` (n,), ``v, a`` (n, N), ``deformation, force`` (n, K) at points that hold
     both sides of every event (the ends of every segment; or a whole sampled series);
@@ -160,7 +174,7 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
     # are finite, Result.build checked them)
     t, v, a, force = (rows[key].tolist() for key in ("t", "v", "a", "force"))
     K = rows["deformation"].shape[1]
-    found = episodes(events, K, t[-1])
+    found = episodes(events, K, t[-1], resolution)
     t_post = max((e[2] for e in found if e[3]), default=np.nan)
     count = [0] * K
     for e in found:

@@ -12,8 +12,11 @@ ends that first impact (NaN: not ended); ``v_sep`` (..., K, 2) [velocity]: the s
 magnitude) over that impact; and ``v_max`` (...) [velocity]: the run's largest speed, the scale
 of the pushed-shut test (:data:`lsc.impacts.PUSHED`). The definitions are those of the docs'
 metrics page: each vehicle's headline values come from the first impact of the adjacent contact
-that touched first (ties to the lower contact index); the duration is the scene's first
-impact's; a contact's velocity restitution is NaN where it never touched or was pushed shut.
+that touched first; the duration is the scene's first impact's; a contact's velocity restitution
+is NaN where it never touched or was pushed shut. First touches that the solve cannot order (less
+than :func:`tie_window` apart, or a contact pushed shut during its neighbour's first impact:
+:func:`simultaneous_touch`) are simultaneous: the lower contact index takes the tie, from the first
+of the touches (:func:`headline`), whichever way the solve's rounding or tolerance ordered them.
 """
 
 from __future__ import annotations
@@ -21,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
-           "event_update", "restitution", "in_g", "headline", "metrics"]
+           "event_update", "restitution", "in_g", "tie_window", "TIE_ROUNDING", "simultaneous_touch", "headline",
+           "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
@@ -30,6 +34,19 @@ PUSHED = 1e-6
 #: The fields of the first-impact record (see the module docstring).
 FIRST_KEYS = ("contact_time", "v_touch", "first_end", "v_sep", "peak_force", "peak_acc",
               "v_max")
+
+
+#: The relative time resolution of an exact solve (its event times' rounding, a few hundred ulps
+#: after many events): the least ``resolution`` :func:`tie_window` takes.
+TIE_ROUNDING = 1e-13
+
+
+def tie_window(t, span, resolution=0.0, xp=np):
+    """(...) [time]: how far apart two closings can be and still be simultaneous, for a closing
+    at time ``t`` (...) [time] whose impact lasts ``span`` (...) [time], in a solve whose event
+    times are resolved to ``resolution`` [-] (relative; an integrator's ``rtol``, 0 for an
+    exact backend): ``max(resolution, TIE_ROUNDING) * max(|t|, span)``."""
+    return xp.maximum(resolution, TIE_ROUNDING) * xp.maximum(xp.abs(t), span)
 
 
 def pairs(v, xp=np):
@@ -110,52 +127,102 @@ def in_g(acceleration, g, xp=np):
     return acceleration / xp.asarray(g, dtype=float)[..., None]
 
 
-def _pick(values, index, xp):
-    """``values`` (..., M) at ``index`` (..., P) along the last axis (as a mask, which jax.numpy
-    and NumPy take alike, batched or not, at a fraction of ``take_along_axis``'s cost on
-    small arrays)."""
-    hit = index[..., None] == xp.arange(values.shape[-1])
-    return xp.sum(xp.where(hit, values[..., None, :], 0), axis=-1)
+def _sides(x, pad, xp):
+    """(rear, front) (..., N) of per-contact values ``x`` (..., K): each vehicle's rear
+    contact's and front contact's (``pad`` (..., 1) where it has none)."""
+    return xp.concatenate([pad, x], axis=-1), xp.concatenate([x, pad], axis=-1)
 
 
-def _by_vehicle(front, back, rear, pad, xp):
-    """(..., N): each vehicle's value from its contacts' (..., K) values ``front`` (side 0: the
-    contact's rear vehicle) and ``back`` (side 1: its front vehicle): from its rear contact's
-    ``back`` where ``rear`` (..., N), else from its front contact's ``front``. The first vehicle
-    has no rear contact and the last no front one (``rear`` is False and True there), so the
-    padding ``pad`` (..., 1) (zeros) is never picked."""
-    return xp.where(rear, xp.concatenate([pad, back], axis=-1),
-                    xp.concatenate([front, pad], axis=-1))
+def simultaneous_touch(ct, end, pushed, xp=np):
+    """(..., K) [time]: each contact's first touch ``ct`` (..., K) [time] (NaN: never), or,
+    where it was pushed shut (``pushed`` (..., K)) while a neighbour's first impact went on
+    (from its touch to ``end`` (..., K) [time]), that neighbour's (its compression began with
+    that impact: its own touch time is set by rounding, the deformation growing from zero as
+    a power of time); inf where it never touched."""
+    inf = xp.full(xp.shape(ct)[:-1] + (1,), xp.inf)
+    touched = ~xp.isnan(ct)
+    c0 = xp.where(touched, ct, 0.0)
+    eff = xp.where(touched, ct, xp.inf)
+    for _ in range(ct.shape[-1] - 1):   # (a push passed down a line of touching vehicles)
+        by_rear = pushed[..., 1:] & touched[..., :-1] & (c0[..., :-1] <= c0[..., 1:]) & \
+            (c0[..., 1:] <= end[..., :-1])
+        by_front = pushed[..., :-1] & touched[..., 1:] & (c0[..., 1:] <= c0[..., :-1]) & \
+            (c0[..., :-1] <= end[..., 1:])
+        eff = xp.minimum(eff, xp.concatenate([inf, xp.where(by_rear, eff[..., :-1], xp.inf)],
+                                             axis=-1))
+        eff = xp.minimum(eff, xp.concatenate([xp.where(by_front, eff[..., 1:], xp.inf), inf],
+                                             axis=-1))
+    return eff
 
 
-def headline(first, t_last, v_last, xp=np) -> dict:
+def _ties(first, touched, c0, end, v_touch, v_end, resolution, xp):
+    """``delta_v``, ``peak_acceleration`` (..., N) and ``duration`` (...) of a chain (see
+    :func:`headline`), simultaneous first touches taken as one."""
+    tie = xp.where(touched, tie_window(c0, end - c0, xp.asarray(resolution)[..., None], xp),
+                   0.0)
+    pushed = touched & ~(v_touch[..., 0] - v_touch[..., 1] > PUSHED * first["v_max"][..., None])
+    eff = simultaneous_touch(first["contact_time"], end, pushed, xp)
+    w = xp.where(touched, eff, 0.0)
+    # each vehicle from its rear contact (side 1) and its front contact (side 0)
+    no, zero = xp.zeros_like(touched[..., :1]), xp.zeros_like(c0[..., :1])
+    hit_r, hit_f = _sides(touched, no, xp)
+    c_r, c_f = _sides(c0, zero, xp)
+    tie_r, tie_f = _sides(tie, zero, xp)
+    w_r, w_f = _sides(w, zero, xp)
+    tied = hit_r & hit_f & (xp.abs(w_r - w_f) <= xp.maximum(tie_r, tie_f))
+    # the first touch (the rear on equal times); the impact: that one's, the rear one's if tied
+    first_r = hit_r & (~hit_f | (c_r <= c_f))
+    rear = first_r | tied
+
+    def side(x, use_rear):
+        return xp.where(use_rear, _sides(x[..., 1], zero, xp)[0], _sides(x[..., 0], zero, xp)[1])
+
+    hit = hit_r | hit_f
+    dv = xp.where(hit, side(v_end, rear) - side(v_touch, first_r), 0.0)
+    acc = xp.where(hit, side(first["peak_acc"], rear), 0.0)
+    # the scene's first impact: of the first touches simultaneous with the earliest, the lowest
+    # contact index's, from the earliest
+    w_min = xp.min(eff, axis=-1, keepdims=True)
+    group = touched & (eff - xp.where(xp.isinf(w_min), 0.0, w_min) <= tie)
+    k1 = xp.argmax(group, axis=-1)[..., None] == xp.arange(c0.shape[-1])
+    duration = xp.where(xp.any(group, axis=-1),
+                        xp.sum(xp.where(k1, end, 0.0), axis=-1)
+                        - xp.min(xp.where(group, c0, xp.inf), axis=-1), 0.0)
+    return dv, acc, duration
+
+
+def headline(first, t_last, v_last, xp=np, resolution=0.0) -> dict:
     """The headline metrics from the record at the end of the run (time ``t_last`` (...),
     speeds ``v_last`` (..., N): the end of a first impact still open then): ``delta_v``,
     ``peak_acceleration`` (..., N) (0 for a vehicle in no impact), ``peak_force``,
-    ``restitution``, ``contact_time`` (..., K) and ``duration`` (...) (0 if nothing touched)."""
+    ``restitution``, ``contact_time`` (..., K) and ``duration`` (...) (0 if nothing touched).
+
+    Simultaneous first touches (:func:`tie_window` apart at the solve's relative time
+    ``resolution`` (...) [-], or a contact pushed shut during its neighbour's first impact:
+    :func:`simultaneous_touch`) count as one: a vehicle whose two contacts touch
+    simultaneously takes its rear contact's first impact (the lower contact index), from the
+    first of the two touches; the duration is that of the scene's first impact (the lowest
+    contact index among the first touches), from the first of them."""
     ct, t1 = first["contact_time"], first["first_end"]
     touched, ended = ~xp.isnan(ct), ~xp.isnan(t1)
+    v_touch = first["v_touch"]
     v_end = xp.where(ended[..., None], first["v_sep"], pairs(v_last, xp))
-    dv = xp.where(touched[..., None], v_end - first["v_touch"], 0.0)
-    start = xp.where(touched, ct, xp.inf)
-    # each vehicle: its rear contact (side 1) when that touched first, else its front (side 0)
-    no = xp.zeros_like(touched[..., :1])
-    rear = xp.concatenate([no, start[..., :-1] <= start[..., 1:], ~no], axis=-1)
-    hit = _by_vehicle(touched, touched, rear, no, xp)
-
-    def per_vehicle(x):
-        return xp.where(hit, _by_vehicle(x[..., 0], x[..., 1], rear, no, xp), 0.0)
-
-    k1 = xp.argmin(start, axis=-1)[..., None]                 # the scene's first impact
-    span = xp.where(touched, xp.where(ended, t1, xp.asarray(t_last)[..., None]) - ct, 0.0)
-    duration = _pick(span, k1, xp)[..., 0]
-    return {"delta_v": per_vehicle(dv), "peak_acceleration": per_vehicle(first["peak_acc"]),
+    c0 = xp.where(touched, ct, 0.0)
+    end = xp.where(ended, t1, xp.asarray(t_last)[..., None])   # (where touched)
+    if ct.shape[-1] == 1:   # one contact: nothing to tie
+        hit = xp.concatenate([touched, touched], axis=-1)
+        dv = xp.where(hit, (v_end - v_touch)[..., 0, :], 0.0)
+        acc = xp.where(hit, first["peak_acc"][..., 0, :], 0.0)
+        duration = xp.where(touched[..., 0], end[..., 0] - c0[..., 0], 0.0)
+    else:
+        dv, acc, duration = _ties(first, touched, c0, end, v_touch, v_end, resolution, xp)
+    return {"delta_v": dv, "peak_acceleration": acc,
             "peak_force": first["peak_force"], "duration": duration, "contact_time": ct,
-            "restitution": restitution(first["v_touch"], v_end, first["v_max"][..., None], xp)}
+            "restitution": restitution(v_touch, v_end, first["v_max"][..., None], xp)}
 
 
 def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
-            separation_time=None) -> dict:
+            separation_time=None, resolution=0.0) -> dict:
     """Every metric of :data:`lsc.result.METRICS` (and ``contact_time``; ``separation_time``
     when given) from the first-impact record ``first`` and the run's records.
 
@@ -163,9 +230,10 @@ def metrics(first, records, v_final, g, failure_time, t_last, v_last, xp=np,
     permanent deformation, absorbed and returned energy over the run); ``v_final`` (..., N)
     [velocity] (after the last separation); ``g`` (...) [acceleration]; ``failure_time``
     (..., K) [time] (NaN: never failed); ``t_last``, ``v_last``: as :func:`headline`.
-    ``restitution_energy`` (Eq. 10) is NaN where nothing was absorbed.
+    ``restitution_energy`` (Eq. 10) is NaN where nothing was absorbed. ``resolution`` [-]: the
+    solve's relative time resolution (:func:`tie_window`: its ``rtol``; 0 for an exact one).
     """
-    out = headline(first, t_last, v_last, xp)
+    out = headline(first, t_last, v_last, xp, resolution)
     ec, er = records["ec"], records["er"]
     with np.errstate(invalid="ignore", divide="ignore"):
         e_energy = xp.sqrt(er / ec)

@@ -164,7 +164,8 @@ class Result:
         r.v_final = np.asarray(v_final, float)
         v_max = float(np.max(np.abs(rows["v"]), initial=0.0))
         r.impacts = find_impacts(rows, r.events, r.v_final, contacts, speeds=scene.speeds,
-                                 g=scene.g, v_max=v_max, spans=peaks)
+                                 g=scene.g, v_max=v_max, spans=peaks,
+                                 resolution=r.resolution)
         for imp in r.impacts:
             check_resolved(imp.t_start, imp.t_end, f"contact {imp.contact}: the impact")
         if failure_time is None:
@@ -180,7 +181,8 @@ class Result:
                    for key in ("dmax", "dperm", "ec", "er")}
         first = _first_record(self.impacts, len(contacts), v_max)
         out = _metrics.metrics(first, records, self.v_final, self.scene.g, failure_time,
-                               float(rows["t"][-1]), last_speeds(rows, self.impacts, self.v_final))
+                               float(rows["t"][-1]), last_speeds(rows, self.impacts, self.v_final),
+                               resolution=self.resolution)
         for name in (*METRICS, "contact_time"):
             value = out[name]
             setattr(self, name, value if isinstance(value, np.ndarray) and value.ndim
@@ -203,6 +205,12 @@ class Result:
         series = {k: np.asarray(v, float) for k, v in self.sampler().items()}
         _check_series(self.method, series)
         return series
+
+    @property
+    def resolution(self) -> float:
+        """The relative time resolution of the solve [-]: its ``rtol`` (0 for an exact one);
+        closings closer than :func:`lsc.metrics.tie_window` are simultaneous."""
+        return float(self.tolerances.get("rtol") or 0.0)
 
     @property
     def first_impact(self) -> Impact | None:

@@ -18,7 +18,9 @@ in the tests.
 ``method="finite-difference"`` computes the same derivatives by a fourth-order central difference
 of :func:`lsc.solve` (any backend, default ``auto``: the closed form or the exact piecewise solve
 where they apply) with each parameter set through :meth:`lsc.Scene.with_values`: no JAX needed,
-and every law is supported (Brach's law with a target restitution only this way).
+and every law is supported (Brach's law with a target restitution only this way). Its step is
+relative to each parameter's value, with a floor where that value is tiny against the parameter's
+scale (a restitution of 1e-200): see :func:`sensitivity`'s ``step``.
 
 Parameters are dotted scene paths (``"vehicles.0.speed"``, as :func:`lsc.sweep` takes them).
 The default set: each vehicle's ``weight`` (or ``mass``, as the scene gives it), each vehicle's
@@ -50,7 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, SimulationError
 from ..result import METRICS as RESULT_METRICS
 from ..scene import Scene
 from ._common import SummaryHTML
@@ -229,16 +231,56 @@ def _ratio_unit(num: str, den: str) -> str:
 # ---------------------------------------------------------------------------- parameters
 
 
-#: backward.
-_STENCILS = (((-2, -1, 1, 2), (1, -8, 8, -1)),
-             ((0, 1, 2, 3, 4), (-25, 48, -36, 16, -3)),
-             ((0, -1, -2, -3, -4), (25, -48, 36, -16, 3)))
-def _by_fd(sc, prms, needed, *, backend, step, rtol, reference):
+#: ``(offsets, weights, second-order weights)``, each over ``12 h``: the fourth-order central,
+#: forward and backward stencils and the second-order estimate from the same points.
+_STENCILS = (((-2, -1, 1, 2), (1, -8, 8, -1), (0, -6, 6, 0)),
+             ((0, 1, 2, 3, 4), (-25, 48, -36, 16, -3), (-18, 24, -6, 0, 0)),
+             ((0, -1, -2, -3, -4), (25, -48, 36, -16, 3), (18, -24, 6, 0, 0)))
+#: Where a step is raised to its floor (:func:`_fd_steps`), the fourth- and second-order
+#: estimates must agree to this fraction: else the metric is not smooth over the stencil
+#: (it spans the parameter's value many times over) and the derivative is refused.
+_FLOOR_AGREEMENT = 1e-3
+#: The relative resolution of a solve by a backend that takes no ``rtol`` (exact, closed
+#: form): its rounding, a few hundred ulps of each metric.
+_EXACT_RESOLUTION = 1e-13
+
+
+def _fd_steps(prms, reference, step, resolution, v_scale) -> np.ndarray:
+    """Each parameter's finite-difference step: ``step`` times its reference value, but no
+    less than ``sqrt(resolution)`` times its scale (the larger of that value and, for a speed,
+    the closing scale ``v_scale``, for a dimensionless parameter 1). Below that floor a
+    solve's own noise (``resolution`` of each metric) divided by the step swamps the
+    difference (a restitution of 1e-200 gave a slope of 1e187 for one of -3); at it, that
+    noise is ``sqrt(resolution)`` of a natural derivative (metric scale over parameter scale)."""
+    natural = np.array([v_scale if q.kind == "velocity" else 1.0 if q.kind == "dimensionless"
+                        else 0.0 for q in prms])
+    return np.maximum(step * reference, np.sqrt(resolution) * np.maximum(reference, natural))
+
+
+def _check_floor(prm, metric, d4, d2, h, noise) -> None:
+    """Raise :class:`SimulationError` where the derivatives ``d4`` and ``d2`` (fourth and
+    second order, from one stencil of step ``h`` raised to its floor) of ``metric`` with
+    respect to ``prm`` disagree by more than :data:`_FLOOR_AGREEMENT` (beyond the solves'
+    ``noise`` [metric unit / parameter unit]): the metric is not smooth over the stencil."""
+    off = np.abs(np.asarray(d4) - np.asarray(d2))
+    if np.all(off <= _FLOOR_AGREEMENT * np.abs(d4) + 100 * noise):
+        return
+    raise SimulationError(
+        f"{prm.path}: the finite-difference derivative of {metric} at {prm.value:g} is not "
+        f"resolved: a solve resolves no step below {h:g} there, and over that step the metric "
+        "is not smooth (its fourth- and second-order differences disagree; a damping law's "
+        "pulse at a vanishing restitution changes over a far smaller scale); give a larger "
+        "value, or drop that metric")
+
+
+def _by_fd(sc, prms, needed, *, backend, step, rtol, reference, v_scale):
     from ..api import resolve, solve
     base_backend, _ = resolve(sc, backend, {})
     opts = {}
     if rtol is not None and base_backend in ("scipy", "diffrax"):
         opts["rtol"] = rtol
+    resolution = opts.get("rtol", _EXACT_RESOLUTION)
+    steps = _fd_steps(prms, reference, step, resolution, v_scale)
 
     def metrics_of(scene):
         r = solve(scene, method=backend, **opts)
@@ -249,10 +291,10 @@ def _by_fd(sc, prms, needed, *, backend, step, rtol, reference):
     derivs = {k: np.zeros(np.shape(v) + (len(prms),)) for k, v in values.items()}
     n = 1
     for j, prm in enumerate(prms):
-        h = step * reference[j]
+        h = float(steps[j])
         # fourth-order stencils: central, or one-sided at the end of a parameter's range (e = 0,
         # e = 1)
-        for offsets, weights in _STENCILS:
+        for offsets, weights, second in _STENCILS:
             try:
                 scenes = {o: sc.with_values({prm.path: prm.value + o * h}) for o in offsets if o}
                 break
@@ -265,8 +307,12 @@ def _by_fd(sc, prms, needed, *, backend, step, rtol, reference):
         n += len(scenes)
         for k in needed:
             derivs[k][..., j] = sum(w * got[o][k] for o, w in zip(offsets, weights)) / (12 * h)
+            if h > step * reference[j]:
+                _check_floor(prm, k, derivs[k][..., j], sum(
+                    w * got[o][k] for o, w in zip(offsets, second)) / (12 * h), h, resolution * max(
+                        float(np.max(np.abs(got[o][k]), initial=0.0)) for o in offsets) / h)
     stats = {"solves": n, "wall_time": time.perf_counter() - t0, "backend": r0.method,
-             "step": step}
+             "step": step, "steps": steps.tolist()}
     return values, derivs, stats, (f"fourth-order central differences of lsc.solve "
                                    f"({r0.method}, relative step {step:g})")
 
@@ -298,7 +344,11 @@ def sensitivity(scene, params=None, *, metrics=DEFAULT_METRICS, method: str = "d
         diffrax solver settings (as ``lsc.solve(method="diffrax")``; ``max_steps`` per segment).
         With finite differences, ``rtol`` applies where the backend takes it (SciPy, diffrax).
     step : float
-        Finite differences: the step, relative to each parameter's reference value.
+        Finite differences: the step, relative to each parameter's reference value; never
+        below ``sqrt(resolution)`` of the parameter's scale (``resolution``: the solve's
+        ``rtol``, 1e-13 for an exact backend; the scale: the value, at least the closing speed
+        for a speed and 1 for a dimensionless parameter), where the solve's noise would swamp
+        the difference. ``stats["steps"]`` holds the steps taken.
     backend : str
         Finite differences: the backend of each solve (default ``auto``).
 
@@ -361,7 +411,7 @@ def sensitivity(scene, params=None, *, metrics=DEFAULT_METRICS, method: str = "d
         needed = tuple(dict.fromkeys("peak_acceleration" if m == "peak_acceleration_g" else m
                                      for m in metrics))
         values, derivs, stats, how = _by_fd(sc, prms, needed, backend=backend, step=step,
-                                            rtol=rtol, reference=reference)
+                                            rtol=rtol, reference=reference, v_scale=vscale)
     g = sc.g
     out_v, out_d, units = {}, {}, {}
     for m in metrics:

@@ -320,7 +320,7 @@ class SegmentLoop(EventSearch, PeakSearch):
             out["disc0"] = flat(disc0)
             out.update({k: c[k] for k in ("rec", "seg", "nodes", "n_nodes", "frame")})
         else:
-            out.update(self._metrics(c, g))
+            out.update(self._metrics(c, g, rtol))
         return out
 
     def _sample(self, p, rtol, atol, discs, st0, st1, sy0, sdisc, sframe, sts):
@@ -347,17 +347,18 @@ class SegmentLoop(EventSearch, PeakSearch):
 
         return jax.vmap(values)(st0, st1, sy0, sdisc, sframe, sts)
 
-    def _metrics(self, c, g):
+    def _metrics(self, c, g, rtol):
         """The Result metrics (:func:`lsc.metrics.metrics`) from the final carry ``c`` of a
         metrics solve: the headline metrics from the first-impact record, the contacts' records
-        and ``v_final`` (after the last separation) over the run."""
+        and ``v_final`` (after the last separation) over the run; closings within ``rtol`` of
+        their time scale are simultaneous (:func:`lsc.metrics.tie_window`)."""
         N, K = self.model.N, self.model.K
         records = {key: jnp.stack([d[key] for d in c["disc"][:K]])
                    for key in ("dmax", "dperm", "ec", "er")}
         post = jnp.where(c["separated"], c["y_post"], c["y"])
         return M.metrics({key: c[key] for key in M.FIRST_KEYS}, records, post[N:2 * N], g,
                          c["failure_time"], c["t"], c["y"][N:2 * N], jnp,
-                         separation_time=c["separation_time"])
+                         separation_time=c["separation_time"], resolution=rtol)
 
     def run_metrics(self, p, rtol, atol, t_end, horizon, g):
         """The metrics solve of parameters ``p``, traced (not compiled: to be wrapped in ``vmap``

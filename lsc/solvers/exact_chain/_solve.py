@@ -155,7 +155,10 @@ class _Chain:
     def _event_functions(self, motion, disc, D0, W0, x0, v0):
         """``[(event index, Series, tolerance at the start)]`` for every armed event."""
         tol_d = START_TOL * self.length + 16 * _EPS * float(np.max(np.abs(x0)))
-        tol_w = START_TOL * self.model.v_scale + 16 * _EPS * float(np.max(np.abs(v0)))
+        # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
+        # force k tol_d drives the rate's derivatives as ω tol_d does its value)
+        tol_w = START_TOL * self.model.v_scale + 16 * _EPS * float(np.max(np.abs(v0))) \
+            + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
         out = []
         for i in self.model.active_events(disc):
             k, which = self.model.events[i]
