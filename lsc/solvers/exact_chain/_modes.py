@@ -179,15 +179,16 @@ class Series:
         """``g`` on a grid whose basis is ``S, C`` (:meth:`Modes.basis`)."""
         return self.c + S @ self.alpha + C @ self.gamma
 
-    def derivatives_at_zero(self, n: int) -> list[float]:
-        """``g(0), g'(0), ..., g^(n)(0)``: ``S^(2m+1)(0) = (-κ)^m``, ``C^(2m+2)(0) = (-κ)^m``
-        and the others vanish, so ``g^(2m+1)(0) = Σ α (-κ)^m``, ``g^(2m+2)(0) = Σ γ (-κ)^m``."""
-        return _at_zero(self.c, self.alpha.tolist(), self.gamma.tolist(),
-                        [-k for k in self.modes._kappa], n)
+    def derivatives_from_zero(self):
+        """``g(0), g'(0), ..., g^(p)(0), ...`` one at a time, as many as are asked for:
+        ``S^(2m+1)(0) = (-κ)^m``, ``C^(2m+2)(0) = (-κ)^m`` and the others vanish, so
+        ``g^(2m+1)(0) = Σ α (-κ)^m``, ``g^(2m+2)(0) = Σ γ (-κ)^m``."""
+        return _at_zero_terms(self.c, self.alpha.tolist(), self.gamma.tolist(),
+                              [-k for k in self.modes._kappa])
 
     def each_at_zero(self, size: float):
         """``(g^(p)(0), the size of its terms)`` for ``p = 0, 1, ...``, one at a time (as
-        :meth:`derivatives_at_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
+        :meth:`derivatives_from_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
         ``size`` the size of ``g(0)``: their rounding is a few ulps of it; a search that stops at
         the first derivative clear of rounding computes no more)."""
         minus = [-k for k in self.modes._kappa]
@@ -286,14 +287,8 @@ def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
     return 2.0 * sw * c, 2.0 * sw * sw
 
 
-def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
-    """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...`` (``n + 1`` terms)."""
-    terms = _at_zero_terms(c, alpha, gamma, factor)
-    return [next(terms) for _ in range(n + 1)]
-
-
 def _at_zero_terms(c: float, alpha: list, gamma: list, factor: list):
-    """The terms of :func:`_at_zero`, one at a time (as many as asked for)."""
+    """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...``, one at a time (as many as asked for)."""
     yield c
     power, p = [1.0] * len(alpha), 1
     while True:

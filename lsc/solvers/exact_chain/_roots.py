@@ -20,7 +20,7 @@ import numpy as np
 
 from ._modes import Modes, Series
 
-__all__ = ["earliest", "first_crossing", "extrema", "Stack", "PER_RADIAN", "TOUCH", "FLAT"]
+__all__ = ["earliest", "first_crossing", "Stack", "PER_RADIAN", "TOUCH", "FLAT"]
 
 #: Samples per radian of the fastest mode (the curvature bound does the rest).
 PER_RADIAN = 4.0
@@ -223,50 +223,7 @@ def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:
     return down[0] if down else None
 
 
-def extrema(funcs, T: float) -> list[list[float]]:
-    """For each of ``funcs`` (a list of :class:`Series`, or their :class:`Stack`), the times
-    in ``[0, T]`` that hold its extreme values on it besides the ends: where its derivative
-    changes sign (refined to a few ulps), and the ends of the intervals where ``g`` provably
-    varies by less than :data:`FLAT` of its size (a derivative grazing zero there need not be
-    resolved: any point of the interval gives the value to rounding)."""
-    stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
-    modes = stack.modes
-    out = [[] for _ in stack.c]
-    if T <= 0:
-        return out
-    ders = stack.derivative()
-    tt = _grid(modes, 0.0, T) if modes.fastest() > 0 else np.linspace(0.0, T, 3)
-    S, C = modes.basis(tt)
-    size = np.max(np.abs(stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T), axis=1)
-    vals = ders.c[:, None] + ders.alpha @ S.T + ders.gamma @ C.T
-    bounds = ders.curvature_bounds(T)
-    margin = (bounds * (tt[1] - tt[0]) ** 2 / 8.0)[:, None]
-    unclear = ((vals[:, :-1] * vals[:, 1:] <= 0)
-               | (np.minimum(np.abs(vals[:, :-1]), np.abs(vals[:, 1:])) <= margin))
-    times = tt.tolist()
-    for j in np.flatnonzero(unclear.any(axis=1)).tolist():
-        d = ders.series(j)
-        if not (d.alpha.any() or d.gamma.any()):
-            continue   # a constant: no interior extremum
-        start = _taylor_clear(d, T, float(np.sum(np.abs(stack.alpha[j]))))
-        B, flat = float(bounds[j]), FLAT * float(size[j])
-        idx = np.flatnonzero(unclear[j] & (tt[1:] > start))
-        if idx.size > MANY:   # (a derivative ringing: its plain sign changes refined at once)
-            a, b, da, db = tt[idx], tt[idx + 1], vals[j, idx], vals[j, idx + 1]
-            plain = ((da * db <= 0) & (da != db) & (a >= start)
-                     & ((np.maximum(np.abs(da), np.abs(db)) + B * (b - a) ** 2 / 8.0) * (b - a)
-                        > flat))
-            out[j] += _refine_many(d, a[plain], b[plain], da[plain], db[plain]).tolist()
-            idx = idx[~plain]
-        v = vals[j].tolist()
-        for i in idx.tolist():
-            a = max(times[i], start)
-            out[j] += _sign_changes(d, a, times[i + 1], v[i] if a == times[i] else d(a),
-                                    v[i + 1], B, flat)
-    return out
-
-
-#: More intervals than this to search in one function: its plain sign changes are refined
+#: More sign changes than this in one search of the peaks (:mod:`._peaks`): they are refined
 #: together (:func:`_refine_many`).
 MANY = 16
 #: How close :func:`_refine_many` puts a zero of a derivative, relative to its time.
@@ -332,9 +289,9 @@ def _taylor_clear(d: Series, T: float, rounding: float) -> float:
 
 
 #: A function that provably varies by less than this fraction of its size over an interval
-#: has its extreme values there at the interval's ends, to rounding (:func:`extrema`).
+#: has its extreme values there at the interval's ends, to rounding (:mod:`._peaks`).
 FLAT = 1e-15
-#: Bisection depth of an interval whose derivative grazes zero, in :func:`extrema`.
+#: Bisection depth of an interval whose derivative grazes zero (:func:`_sign_changes`).
 DEPTH = 10
 
 
