@@ -148,7 +148,8 @@ class Series:
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
         if isinstance(tau, float) or np.ndim(tau) == 0:
             tau, total = float(tau), 0.0
-            for a, g, _, s, c in _at_time(self._modal(), tau):
+            for kind, w, a, g, _ in self._modal():
+                s, c = _mode_at(kind, w, tau)
                 total += a * s + g * c
             return self.c + total
         S, C = self.modes.basis(np.atleast_1d(tau))
@@ -170,7 +171,8 @@ class Series:
             return (self.c + S @ self.alpha + C @ self.gamma,
                     np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
         g, dg = self.c, 0.0
-        for a, c, k, s_j, c_j in _at_time(self._modal(), tau):
+        for kind, w, a, c, k in self._modal():
+            s_j, c_j = _mode_at(kind, w, tau)
             g += a * s_j + c * c_j
             dg += a * (1.0 - k * c_j) + c * s_j
         return g, dg
@@ -243,6 +245,7 @@ class Shape:
         self.modes = Modes(kappa)
         self.T = Q / root[:, None]
         self.P = C @ self.T
+        self.minus_kappa_P = -self.modes.kappa * self.P   # (each row as -κ * P[k] gives it)
         self.from_velocity = Q.T * root[None, :]
         self.from_force = self.T.T @ incidence
         # the contact forces and accelerations (K + N): from the forces at the start, and
@@ -265,12 +268,6 @@ SHAPES = 4096
 #: ... and at most about this many (N, N) matrix entries in all (each Shape holds a few (N, N)
 #: and (K, N) matrices: a bound of some tens of MB for long chains).
 SHAPE_ENTRIES = 1_000_000
-
-
-def _at_time(modal: list, tau: float):
-    """``(α_j, γ_j, κ_j, S_j(τ), C_j(τ))`` of each mode of ``modal`` (:meth:`Series._modal`)
-    at one time ``tau`` [s], on Python floats, as :meth:`Modes.basis_at` computes them."""
-    return [(a, g, k, *_mode_at(kind, w, tau)) for kind, w, a, g, k in modal]
 
 
 def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
@@ -318,6 +315,7 @@ class Motion:
         self.a = shape.from_velocity @ v0                # q'(0)
         self.b = shape.from_force @ force                # q''(0)
         self.N = m.size
+        self._pa = self._rate = None
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
@@ -336,14 +334,24 @@ class Motion:
         return out[:, 0] if np.ndim(tau) == 0 else out
 
     def deformation(self, k: int, c: float, sign: float = 1.0) -> Series:
-        """``c + sign ΔD_k(τ)`` as a :class:`Series`."""
-        row = sign * self.P[k]
-        return Series(float(c), row * self.a, row * self.b, self.modes)
+        """``c + sign ΔD_k(τ)`` (``sign`` ±1) as a :class:`Series`."""
+        pa, pb = self._rows()
+        if sign < 0:
+            return Series(float(c), -pa[k], -pb[k], self.modes)
+        return Series(float(c), pa[k], pb[k], self.modes)
 
     def closing_rate(self, k: int, w0: float) -> Series:
         """``Ḋ_k(τ) = w0 + ΔḊ_k(τ)`` as a :class:`Series` (``q' = a S' + b S``)."""
-        row = self.P[k]
-        return Series(float(w0), row * self.b, -self.kappa * row * self.a, self.modes)
+        if self._rate is None:
+            self._rate = self.shape.minus_kappa_P * self.a
+        return Series(float(w0), self._rows()[1][k], self._rate[k], self.modes)
+
+    def _rows(self):
+        """``P a, P b`` (K, n): every contact's deformation in the modes (each row's products
+        as a row alone would give them)."""
+        if self._pa is None:
+            self._pa = (self.P * self.a, self.P * self.b)
+        return self._pa
 
 
 def _modes(C, slope, root):
