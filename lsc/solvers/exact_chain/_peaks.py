@@ -62,9 +62,9 @@ def segment_peaks(records, K: int):
         return []
     shapes = [motion.shape for motion, _, _, _ in records]
     c0 = np.array([s.peak_of_force @ force for s, (_, force, _, _) in zip(shapes, records)])
-    rows = [s.peak_rows for s in shapes]
-    A = np.array([r * m.a for r, (m, _, _, _) in zip(rows, records)])   # (S, Q, n)
-    G = np.array([r * m.b for r, (m, _, _, _) in zip(rows, records)])
+    rows = np.array([s.peak_rows for s in shapes])
+    A = rows * np.array([m.a for m, _, _, _ in records])[:, None, :]     # (S, Q, n)
+    G = rows * np.array([m.b for m, _, _, _ in records])[:, None, :]
     kappa = np.array([s.modes.kappa for s in shapes])                   # (S, n)
     w = np.array([s.modes.w for s in shapes])
     kind = np.sign(kappa).astype(int)
@@ -84,7 +84,8 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
     """The times inside each segment (a list per segment) where a searched quantity may have
     an extreme value (the zeros of its derivative, or the ends of intervals where it is flat)."""
     times = [[] for _ in records]
-    which = [[q for q in s.searched.tolist() if q not in rec[3]]
+    # (a segment of no length has no interior; a constant derivative is searched harmlessly)
+    which = [[q for q in s.searched.tolist() if q not in rec[3]] if rec[2] > 0 else []
              for s, rec in zip(shapes, records)]
     seg = np.array([i for i, qs in enumerate(which) for _ in qs], dtype=int)
     if not seg.size:
@@ -92,11 +93,8 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
     q = np.array([q for qs in which for q in qs], dtype=int)
     alpha = A[seg, q]
     # the derivatives (S' = 1 - κ C, C' = S): c + Σ da S + dg C
-    dc, da, dg = alpha.sum(axis=1), G[seg, q], -kappa[seg] * alpha
-    keep = (T[seg] > 0) & (da.any(axis=1) | dg.any(axis=1))   # (a constant has no extremum)
-    seg, q, alpha, dc, da, dg = seg[keep], q[keep], alpha[keep], dc[keep], da[keep], dg[keep]
-    if not seg.size:
-        return times
+    k_seg = kappa[seg]
+    dc, da, dg = alpha.sum(axis=1), G[seg, q], -k_seg * alpha
     fastest = w.max(axis=1)
     count = np.where(fastest > 0, np.ceil(T * PER_RADIAN * fastest), 2.0)
     count = np.maximum(count, 1.0).astype(int)
@@ -106,7 +104,7 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
     grid[np.arange(T.size), count] = T
     Sg, Cg = basis_of(kind[:, None, :], w[:, None, :], grid)            # (S, top + 1, n)
     dv = dc[:, None] + (Sg[seg] @ da[:, :, None])[..., 0] + (Cg[seg] @ dg[:, :, None])[..., 0]
-    bound = _curvature_bounds(kappa[seg], kind[seg], w[seg], da, dg, T[seg])
+    bound = _curvature_bounds(k_seg, kind[seg], w[seg], da, dg, T[seg])
     margin = (bound * step[seg] ** 2 / 8.0)[:, None]
     left, right = dv[:, :-1], dv[:, 1:]
     change = left * right <= 0
@@ -119,7 +117,8 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
     for r in np.flatnonzero(np.abs(dc) <= 64 * _EPS * rounding).tolist():
         d = Series(float(dc[r]), da[r], dg[r], shapes[seg[r]].modes)
         start[r] = _taylor_clear(d, float(T[seg[r]]), float(rounding[r]))
-    a_t, b_t = grid[seg][:, :-1], grid[seg][:, 1:]
+    g_seg = grid[seg]
+    a_t, b_t = g_seg[:, :-1], g_seg[:, 1:]
     unclear &= b_t > start[:, None]
     plain = unclear & change & (left != right) & (a_t >= start[:, None])
     r, i = np.nonzero(plain)
@@ -159,16 +158,17 @@ def _one_by_one(rest, seg, q, A, G, *, shapes, records, dc, da, dg, bound, start
 
 def _curvature_bounds(kappa, kind, w, alpha, gamma, T):
     """Bounds on ``|g''|`` (R,) over ``[0, T]`` (R,) of series of coefficients ``alpha, gamma``
-    (R, n), each on its own modes (as :meth:`~._modes.Modes.curvature_bounds`)."""
-    with np.errstate(divide="ignore", over="ignore"):
-        s_max = np.where(kind > 0, np.minimum(T[:, None], 1.0 / np.where(w > 0, w, 1.0)),
-                         T[:, None])
-        ds_max = np.ones_like(s_max)
-        if (kind < 0).any():
-            hyper = kind < 0
-            ws = np.where(hyper, w, 1.0)
-            s_max = np.where(hyper, np.sinh(ws * T[:, None]) / ws, s_max)
-            ds_max = np.where(hyper, np.cosh(ws * T[:, None]), ds_max)
+    (R, n), each on its own modes (as :meth:`~._modes.Modes.curvature_bounds`: ``|S| <=
+    min(T, 1/ω)``, ``|S'| <= 1``, or ``sinh(λT)/λ``, ``cosh(λT)`` on a hyperbolic mode)."""
+    harmonic = kind > 0
+    s_max = np.minimum(T[:, None], 1.0 / np.where(harmonic, w, 0.5 / T[:, None]))
+    if not (kind < 0).any():
+        return (np.abs(alpha * kappa) * s_max).sum(axis=1) + np.abs(gamma).sum(axis=1)
+    hyper = kind < 0
+    ws = np.where(hyper, w, 1.0)
+    with np.errstate(over="ignore"):
+        s_max = np.where(hyper, np.sinh(ws * T[:, None]) / ws, s_max)
+        ds_max = np.where(hyper, np.cosh(ws * T[:, None]), 1.0)
     return (np.abs(alpha * kappa) * s_max).sum(axis=1) + (np.abs(gamma) * ds_max).sum(axis=1)
 
 
