@@ -302,7 +302,7 @@ class Motion:
     velocity]; ``slope`` (K,) each contact's active slope ``s_k`` [force/length] (0 when open)
     and ``force`` (K,) its force at the start [force]; ``incidence`` (N, K) the model's
     (contact ``k`` pushes vehicle ``k`` back and ``k+1`` forward); ``shape``: their
-    :class:`Shape`, if already built.
+    :class:`Shape`, if already built (``slope`` is then not read).
     """
 
     def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None):
