@@ -129,12 +129,12 @@ def earliest(funcs, lo: float, hi: float,
         unclear &= np.arange(unclear.shape[1])[None, :] >= first[:, None]
     times = tt.tolist()
     width = TOUCH * max(hi, 1e-300)
-    rows = np.flatnonzero(unclear.any(axis=1))
     # the functions in the order of their first unclear interval: one whose interval starts
     # after the earliest crossing found is not searched
-    for j in rows[np.argsort(unclear[rows].argmax(axis=1), kind="stable")].tolist():
+    rows, intervals = _unclear(unclear)
+    for j in rows:
         v, B, g = vals[j].tolist(), float(bounds[j]), stack.series(j)
-        for i in np.flatnonzero(unclear[j]).tolist():
+        for i in intervals(j):
             if best is not None and times[i] > best:
                 break
             a, ga = times[i], v[i]
@@ -146,6 +146,25 @@ def earliest(funcs, lo: float, hi: float,
                     best, best_j = tau, j
                 break
     return best, best_j
+
+
+#: Most samples in a window whose unclear intervals are listed on Python lists (cheaper than
+#: NumPy calls on a first window's few dozen; a long window's are left to NumPy).
+SHORT = 256
+
+
+def _unclear(unclear):
+    """``(rows, intervals)``: the rows of ``unclear`` (E, n) with an unclear interval, in the
+    order of their first one (the first row on a tie), and a function giving a row's
+    intervals."""
+    if unclear.shape[1] <= SHORT:
+        flags = unclear.tolist()
+        rows = sorted((j for j, row in enumerate(flags) if True in row),
+                      key=lambda j: flags[j].index(True))
+        return rows, lambda j: [i for i, u in enumerate(flags[j]) if u]
+    rows = np.flatnonzero(unclear.any(axis=1))
+    rows = rows[np.argsort(unclear[rows].argmax(axis=1), kind="stable")].tolist()
+    return rows, lambda j: np.flatnonzero(unclear[j]).tolist()
 
 
 def first_crossing(g: Series, lo: float, hi: float) -> float | None:
