@@ -9,12 +9,16 @@ segment are sampled together, each on its own segment's grid (:data:`~._roots.PE
 samples per radian of its fastest mode), in one NumPy evaluation; between two samples ``Δ``
 apart a derivative differs from its chord by at most ``B Δ²/8`` (``B`` the bound on its own
 second derivative), so an interval whose samples have one sign and both exceed that holds no
-extremum. The sign changes of the samples are refined all at once (Newton's method on the
-closed-form derivative, kept inside its bracket: :func:`~._roots._refine_many`);
+extremum. The sign changes of the samples are refined by Newton's method on the closed-form
+derivative, kept inside its bracket (one at a time on Python floats, :func:`~._roots._refine`;
+all at once where there are more than :data:`~._roots.MANY`, :func:`~._roots._refine_many`);
 the few intervals the bound cannot clear without a sign change (a derivative grazing zero), and
 a derivative flat at the segment's start (:func:`~._roots._taylor_clear`), go to the search of
-:mod:`._roots` one at a time (:func:`~._roots._sign_changes`). Every quantity of a segment is
-then evaluated at all the times found for it, once for all segments.
+:mod:`._roots` one at a time (:func:`~._roots._sign_changes`). The force of a contact whose
+closing rate is an armed event of the segment is not searched: the event search proves that
+rate keeps its sign inside the segment, so the force is monotone there. Every quantity of a
+segment is then evaluated at all the times found for it (and at both ends), once for all
+segments.
 """
 
 from __future__ import annotations
@@ -54,7 +58,7 @@ def basis_of(kind, w, tau):
 def segment_peaks(records, K: int):
     """For each segment ``(motion, force (K,), τ, loading)`` of ``records``
     (:class:`~._modes.Motion`, the contact forces at its start, its length [s], the contacts
-    that keep closing all along it: their forces are not searched, they grow to its end):
+    that keep closing all along it: their forces, monotone, are not searched):
     ``(the largest force of each contact
     (K,), the acceleration of largest magnitude of each vehicle (N,), signed)`` over ``[0, τ]``
     (see the module docstring)."""

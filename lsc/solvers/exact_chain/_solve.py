@@ -131,7 +131,7 @@ class _Chain:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
         # (a contact whose closing rate is an armed event keeps closing all along: its force
-        # grows to the segment's end, no extremum inside it to search)
+        # is monotone, its extremes at the segment's ends, none inside it to search)
         rising = {self.model.events[i][0] for i, _, _ in funcs if self.model.events[i][1] == 2}
         self.records.append((t0, motion, force, tau, rising))
         self.ends.append((y0, end))
