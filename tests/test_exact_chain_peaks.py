@@ -119,3 +119,29 @@ def test_the_pile_up_has_a_force_searched_from_its_taylor_bound(monkeypatch):
     monkeypatch.setattr(_peaks, "_taylor_clear", spy)
     _check(PILE_UP)
     assert any(t > 0 for t in starts), starts
+
+
+def test_segments_searched_in_windows_give_the_same_peaks(monkeypatch):
+    """A long segment (a ringing contact's) is searched in windows of PASS samples, and the
+    segments are grouped by their sizes: with windows of 3 samples, every segment of a chain
+    with re-closings is cut into many, and the peaks are those of one pass to rounding (and
+    still the brute force's)."""
+    from lsc.solvers.exact_chain import _peaks
+
+    scene = {"units": "US",
+             "vehicles": [{"mass": 120.0, "speed": 20.0}, {"mass": 60.0, "speed": 0.0},
+                          {"mass": 300.0, "speed": 0.0}, {"mass": 90.0, "speed": -3.0}],
+             "contacts": [{"loading": {"stiffness": 2e4}, "unloading": {"restitution": 0.8},
+                           "gap": 0.05},
+                          {"loading": {"stiffness": 3e5}, "unloading": {"restitution": 0.5}},
+                          {"loading": {"stiffness": 5e3}, "unloading": {"restitution": 0.9},
+                           "gap": 0.2}]}
+    whole = _segments(scene)[2]
+    monkeypatch.setattr(_peaks, "PASS", 3)
+    cut = _segments(scene)[2]
+    assert len(whole) == len(cut) > 5
+    for (t0, t1, f, a), (u0, u1, g, b) in zip(whole, cut):
+        assert (t0, t1) == (u0, u1)
+        assert np.allclose(f, g, rtol=1e-13, atol=1e-13 * np.max(np.abs(f)))
+        assert np.allclose(a, b, rtol=1e-13, atol=1e-13 * np.max(np.abs(a)))
+    _check(scene)

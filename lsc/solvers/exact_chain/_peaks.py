@@ -23,6 +23,8 @@ segments.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._modes import Series
@@ -64,6 +66,42 @@ def segment_peaks(records, K: int):
     (see the module docstring)."""
     if not records:
         return []
+    counts = [_intervals(motion.modes.fastest(), tau) for motion, _, tau, _ in records]
+    return _peaks(records, K, _packed([(j, 0, n, n) for j, n in enumerate(counts)]))
+
+
+def _packed(items, cut: bool = True):
+    """``items`` ``(segment, first, size, ...)`` grouped so that a group's count times its
+    largest ``size`` is at most :data:`PASS` (the smallest together); one larger than that
+    alone (``cut``: cut into windows of ``PASS``, a long segment's grid: a ringing contact's)."""
+    groups, group = [], []
+    for item in sorted(items, key=lambda x: x[2]):
+        j, _, n, *rest = item
+        if n > PASS:
+            groups += ([[(j, i, min(PASS, n - i), *rest)] for i in range(0, n, PASS)] if cut
+                       else [[item]])
+            continue
+        if group and (len(group) + 1) * n > PASS:
+            groups.append(group)
+            group = []
+        group.append(item)
+    return groups + [group] if group else groups
+
+
+def _intervals(fastest: float, tau: float) -> int:
+    """How many sample intervals the segment's grid has (:data:`~._roots.PER_RADIAN` a
+    radian of its fastest mode; 2 where all its modes are rigid)."""
+    return max(1, math.ceil(tau * PER_RADIAN * fastest)) if fastest > 0 else 2
+
+
+#: Most samples of one function in one pass of the search (the short segments of a chain in
+#: one pass; a long one, a ringing contact's, in windows of this many samples).
+PASS = 4096
+
+
+def _peaks(records, K: int, passes):
+    """:func:`segment_peaks` of ``records``, their grids searched in ``passes`` (each a list
+    of windows ``(segment, first interval, number of intervals, the segment's intervals)``)."""
     shapes = [motion.shape for motion, _, _, _ in records]
     c0 = np.array([s.peak_of_force @ force for s, (_, force, _, _) in zip(shapes, records)])
     rows = np.array([s.peak_rows for s in shapes])
@@ -73,46 +111,59 @@ def segment_peaks(records, K: int):
     w = np.array([s.modes.w for s in shapes])
     kind = np.sign(kappa).astype(int)
     T = np.array([float(tau) for _, _, tau, _ in records])
-    times = _extremum_times(records, shapes, A, G, kappa, w, kind, T)
-    width = max(len(t) for t in times)
-    tt = np.array([[0.0, tau] + t + [0.0] * (width - len(t)) for tau, t in zip(T.tolist(), times)])
-    S, C = basis_of(kind[:, None, :], w[:, None, :], tt)                # (S, P, n)
-    vals = (c0[:, :, None] + A @ np.swapaxes(S, 1, 2) + G @ np.swapaxes(C, 1, 2))
-    force = vals[:, :K].max(axis=2)
-    acc = vals[:, K:]
-    pick = np.argmax(np.abs(acc), axis=2)[:, :, None]
-    return list(zip(force, np.take_along_axis(acc, pick, axis=2)[:, :, 0]))
-
-
-def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
-    """The times inside each segment (a list per segment) where a searched quantity may have
-    an extreme value (the zeros of its derivative, or the ends of intervals where it is flat)."""
     times = [[] for _ in records]
+    for windows in passes:
+        _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times)
+    out = [None] * len(records)
+    # (every quantity at every time found in its segment and at both ends; the segments with
+    # few times together)
+    for group in _packed([(j, 0, len(t) + 2) for j, t in enumerate(times)], cut=False):
+        idx = [j for j, _, _ in group]
+        width = max(n for _, _, n in group)
+        tt = np.array([[0.0, float(T[j])] + times[j] + [0.0] * (width - 2 - len(times[j]))
+                       for j in idx])
+        S, C = basis_of(kind[idx][:, None, :], w[idx][:, None, :], tt)     # (g, P, n)
+        vals = (c0[idx][:, :, None] + A[idx] @ np.swapaxes(S, 1, 2)
+                + G[idx] @ np.swapaxes(C, 1, 2))
+        acc = vals[:, K:]
+        pick = np.argmax(np.abs(acc), axis=2)[:, :, None]
+        for j, force, a in zip(idx, vals[:, :K].max(axis=2),
+                               np.take_along_axis(acc, pick, axis=2)[:, :, 0]):
+            out[j] = (force, a)
+    return out
+
+
+def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times):
+    """Add to ``times`` (a list per segment) the times inside each window ``(segment, first
+    interval, number of intervals, the segment's intervals)`` of ``windows`` where a searched quantity may have an
+    extreme value (the zeros of its derivative, or the ends of intervals where it is flat)."""
     # (a segment of no length has no interior; a constant derivative is searched harmlessly)
-    which = [[q for q in s.searched.tolist() if q not in rec[3]] if rec[2] > 0 else []
-             for s, rec in zip(shapes, records)]
-    seg = np.array([i for i, qs in enumerate(which) for _ in qs], dtype=int)
-    if not seg.size:
-        return times
+    which = [[q for q in shapes[j].searched.tolist() if q not in records[j][3]]
+             if records[j][2] > 0 else [] for j, _, _, _ in windows]
+    win = np.array([i for i, qs in enumerate(which) for _ in qs], dtype=int)
+    if not win.size:
+        return
+    segs, first, count, total = (np.array(x, dtype=int) for x in zip(*windows))
+    seg = segs[win]
     q = np.array([q for qs in which for q in qs], dtype=int)
     alpha = A[seg, q]
     # the derivatives (S' = 1 - κ C, C' = S): c + Σ da S + dg C
     k_seg = kappa[seg]
     dc, da, dg = alpha.sum(axis=1), G[seg, q], -k_seg * alpha
-    fastest = w.max(axis=1)
-    count = np.where(fastest > 0, np.ceil(T * PER_RADIAN * fastest), 2.0)
-    count = np.maximum(count, 1.0).astype(int)
-    step = T / count
+    # each window's grid: its segment's, from the window's first interval
+    Tw = T[segs]
+    step = Tw / total
     top = int(count.max())
-    grid = np.minimum(step[:, None] * np.arange(top + 1.0), T[:, None])
-    grid[np.arange(T.size), count] = T
-    Sg, Cg = basis_of(kind[:, None, :], w[:, None, :], grid)            # (S, top + 1, n)
-    dv = dc[:, None] + (Sg[seg] @ da[:, :, None])[..., 0] + (Cg[seg] @ dg[:, :, None])[..., 0]
+    grid = np.minimum(step[:, None] * (first[:, None] + np.arange(top + 1.0)), Tw[:, None])
+    ends = first + count == total
+    grid[np.flatnonzero(ends), count[ends]] = Tw[ends]
+    Sg, Cg = basis_of(kind[segs][:, None, :], w[segs][:, None, :], grid)   # (W, top + 1, n)
+    dv = dc[:, None] + (Sg[win] @ da[:, :, None])[..., 0] + (Cg[win] @ dg[:, :, None])[..., 0]
     bound = _curvature_bounds(k_seg, kind[seg], w[seg], da, dg, T[seg])
-    margin = (bound * step[seg] ** 2 / 8.0)[:, None]
+    margin = (bound * step[win] ** 2 / 8.0)[:, None]
     left, right = dv[:, :-1], dv[:, 1:]
     change = left * right <= 0
-    valid = np.arange(top)[None, :] < count[seg][:, None]
+    valid = np.arange(top)[None, :] < count[win][:, None]
     unclear = (change | (np.minimum(np.abs(left), np.abs(right)) <= margin)) & valid
     # a derivative within rounding of zero at the start: searched from where it provably
     # keeps a sign (its first derivative clear of rounding, with a bound on the next)
@@ -121,7 +172,7 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
     for r in np.flatnonzero(np.abs(dc) <= 64 * _EPS * rounding).tolist():
         d = Series(float(dc[r]), da[r], dg[r], shapes[seg[r]].modes)
         start[r] = _taylor_clear(d, float(T[seg[r]]), float(rounding[r]))
-    g_seg = grid[seg]
+    g_seg = grid[win]
     a_t, b_t = g_seg[:, :-1], g_seg[:, 1:]
     unclear &= b_t > start[:, None]
     plain = unclear & change & (left != right) & (a_t >= start[:, None])
@@ -133,24 +184,24 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T):
         found = [_refine(Series(float(dc[j]), da[j], dg[j], shapes[seg[j]].modes), *ab)
                  for j, *ab in zip(r.tolist(), a_t[r, i].tolist(), b_t[r, i].tolist(),
                                    left[r, i].tolist(), right[r, i].tolist())]
-    for s, t in zip(seg[r].tolist(), found):
-        times[s].append(t)
+    for j, t in zip(seg[r].tolist(), found):
+        times[j].append(t)
     rest = unclear & ~plain
     if rest.any():   # (grazing derivatives, or a flat start: one interval at a time)
         _one_by_one(rest, seg, q, A, G, shapes=shapes, records=records,
                     dc=dc, da=da, dg=dg, bound=bound, start=start, a_t=a_t, b_t=b_t,
-                    left=left, right=right, Sg=Sg, Cg=Cg, times=times)
-    return times
+                    left=left, right=right, Sg=Sg[win], Cg=Cg[win], times=times)
 
 
 def _one_by_one(rest, seg, q, A, G, *, shapes, records, dc, da, dg, bound, start,
                 a_t, b_t, left, right, Sg, Cg, times):
-    """:func:`~._roots._sign_changes` on each interval of ``rest`` (rows, intervals)."""
+    """:func:`~._roots._sign_changes` on each interval of ``rest`` (rows, intervals; ``Sg,
+    Cg`` each row's grid basis, the function's size on it sets how flat is flat)."""
     for r in np.flatnonzero(rest.any(axis=1)).tolist():
         s = int(seg[r])
         force = records[s][1]
         shape = shapes[s]
-        f = shape.peak_of_force[q[r]] @ force + Sg[s] @ A[s, q[r]] + Cg[s] @ G[s, q[r]]
+        f = shape.peak_of_force[q[r]] @ force + Sg[r] @ A[s, q[r]] + Cg[r] @ G[s, q[r]]
         flat = FLAT * float(np.max(np.abs(f)))
         d = Series(float(dc[r]), da[r], dg[r], shape.modes)
         B, s0 = float(bound[r]), float(start[r])
