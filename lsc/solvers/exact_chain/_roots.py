@@ -86,16 +86,6 @@ class Stack:
         return Stack(self.modes, self.c[rows], self.alpha[rows], self.gamma[rows],
                      [self._funcs[j] for j in rows])
 
-    def derivative(self) -> "Stack":
-        """Every function's derivative (:meth:`Series.derivative`)."""
-        return Stack(self.modes, self.alpha.sum(axis=1), self.gamma,
-                     -self.modes.kappa * self.alpha)
-
-    def on(self, tt):
-        """The functions (E, len(tt)) at times ``tt`` (1-d) [s]."""
-        S, C = self.modes.basis(tt)
-        return self.c[:, None] + self.alpha @ S.T + self.gamma @ C.T
-
     def curvature_bounds(self, T: float):
         """Bounds on each ``|g''|`` (E,) over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
         return self.modes.curvature_bounds(self.alpha, self.gamma, T)
