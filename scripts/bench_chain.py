@@ -7,11 +7,19 @@ ratio, and how far the SciPy metrics are from the exact ones (max over ΔV, peak
 deformation, relative to each metric's scale).
 
     python scripts/bench_chain.py [--repeat 20] [--chatter 10 [--seed 1] [--max-events 150]]
+    PYTHONPATH=/work/main python scripts/bench_chain.py --dump main.pkl
+    python scripts/bench_chain.py --against main.pkl
 
 Also printed: the same exact solve with its kept modes dropped before each solve (a chain whose
 masses and slopes were not solved before: the eigensolves are paid again), the time of the exact
-segment loop alone (``stats["wall_time"]``) and what comes
-on top of it in ``lsc.solve`` (the model, the backend's checks, the Result's metrics).
+segment loop alone (``stats["wall_time"]``) and what comes on top of it in ``lsc.solve`` (the
+model, the backend's checks, the peaks inside the segments, searched after the loop for all
+segments at once, and the Result's metrics).
+
+``--dump FILE`` / ``--against FILE``: every metric and event of 260 chains
+(:func:`agreement_chains`) solved by one version of ``lsc`` (the one on ``PYTHONPATH``), saved,
+then compared with another's: the outcomes, the sequences of events and the largest relative
+difference.
 
 ``--chatter N``: N random near-plastic chains (3 or 4 vehicles, restitutions 0 to 0.05,
 stiffnesses 1e2 to 1e9 lbf/ft, tables with a plateau, gaps: the near-plastic strategy of
@@ -72,7 +80,12 @@ def main() -> None:
     ap.add_argument("--chatter", type=int, default=0, help="near-plastic chains to compare")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--max-events", type=int, default=150)
+    ap.add_argument("--dump", metavar="FILE", help="solve the agreement chains, save them, stop")
+    ap.add_argument("--against", metavar="FILE", help="compare the agreement chains with a dump")
     args = ap.parse_args()
+    if args.dump or args.against:
+        agreement(args.dump, args.against)
+        return
     scene = lsc.Scene.load(SCENE)
     lsc.solve(scene, method="exact-chain")   # (imports and first-call costs out of the way)
     lsc.solve(scene, method="scipy", rtol=1e-10)
@@ -152,6 +165,87 @@ def chatter(n: int, rng, max_events: int) -> None:
         v0 = max(abs(v["speed"]) for v in scene["vehicles"])
         dv = f"{np.max(np.abs(va - vs)) / v0:.1e}" if va is not None and vs is not None else "-"
         print(f"{j:>3}{ta:>10.3f}  {oa:<42}{ts:>10.3f}  {os_:<42}{dv}", flush=True)
+
+
+def agreement_chains():
+    """260 chains: 50 random ones of each of 3 to 6 vehicles (the batch tests' members), 40
+    near-plastic ones (many end at the event limit: the same error is expected) and 20 whose
+    front contact has a falling table piece (hyperbolic modes)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_exact_chain_batch import random_chains
+
+    for N in (3, 4, 5, 6):
+        base, values = random_chains(N, 50, seed=100 + N)
+        for j in range(50):
+            yield base.with_values({p: float(v[j]) for p, v in values.items()})
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        yield lsc.load_scene(near_plastic_chain(rng))
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        d1, k = 10 ** rng.uniform(-2, -1), 10 ** rng.uniform(3.5, 5)
+        table = [[0, 0], [d1, k * d1], [2 * d1, 0.6 * k * d1], [1e3, 0.6 * k * d1 + 1e4 * k]]
+        speeds = (float(rng.uniform(10, 30)), 0.0, 0.0)
+        yield lsc.load_scene({
+            "units": "US",
+            "vehicles": [{"mass": float(10 ** rng.uniform(1.7, 3)), "speed": v} for v in speeds],
+            "contacts": [{"loading": {"table": table}, "unloading": {"restitution": 0.3},
+                          "gap": float(rng.uniform(0, 0.1))},
+                         {"loading": {"stiffness": float(10 ** rng.uniform(3, 6))},
+                          "unloading": {"restitution": float(rng.uniform(0.1, 1))}}]})
+
+
+def agreement(dump: str | None, against: str | None) -> None:
+    """Solve :func:`agreement_chains` by exact-chain (``max_events=150``): save every metric
+    and event (or the error) to ``dump``, or compare them with a dump made by another version
+    (``PYTHONPATH=/other/checkout python scripts/bench_chain.py --dump FILE``): the statuses,
+    the sequences of events and the largest relative difference of any metric or event time."""
+    import pickle
+
+    from lsc.result import METRICS
+
+    out = []
+    for scene in agreement_chains():
+        try:
+            r = lsc.solve(scene, method="exact-chain", max_events=150)
+            out.append(({n: np.asarray(getattr(r, n), float) for n in METRICS},
+                        [(e.time, e.kind, e.index) for e in r.events]))
+        except lsc.SimulationError as err:
+            out.append(str(err))
+    if dump:
+        with open(dump, "wb") as f:
+            pickle.dump(out, f)
+        print(f"{len(out)} chains, {sum(isinstance(o, str) for o in out)} errors: {dump}")
+        return
+    with open(against, "rb") as f:
+        ref = pickle.load(f)
+    worst, where, differ = 0.0, None, 0
+    for i, (a, b) in enumerate(zip(ref, out)):
+        if isinstance(a, str) or isinstance(b, str):
+            if a != b:   # (an error against a result, or another error)
+                differ += 1
+                print(f"chain {i}: a different outcome: {str(a)[:60]} | {str(b)[:60]}")
+            continue
+        if [e[1:] for e in a[1]] != [e[1:] for e in b[1]]:
+            differ += 1
+            print(f"chain {i}: a different sequence of events")
+            continue
+        pairs = [("event times", np.array([e[0] for e in a[1]]), np.array([e[0] for e in b[1]]))]
+        pairs += [(n, v, b[0][n]) for n, v in a[0].items()]
+        for name, x, y in pairs:
+            ok = ~np.isnan(x)
+            if not np.array_equal(ok, ~np.isnan(y)):
+                differ += 1
+                print(f"chain {i}: {name} defined elsewhere")
+            elif ok.any():
+                d = float(np.max(np.abs(x[ok] - y[ok])) / max(np.max(np.abs(x[ok])), 1e-300))
+                if d > worst:
+                    worst, where = d, (i, name)
+    print(f"{len(out)} chains, {differ} differ in outcome or events; largest relative "
+          f"difference {worst:.2e} (chain, quantity: {where})")
 
 
 if __name__ == "__main__":

@@ -148,7 +148,8 @@ class Series:
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
         if isinstance(tau, float) or np.ndim(tau) == 0:
             tau, total = float(tau), 0.0
-            for a, g, _, s, c in _at_time(self._modal(), tau):
+            for kind, w, a, g, _ in self._modal():
+                s, c = _mode_at(kind, w, tau)
                 total += a * s + g * c
             return self.c + total
         S, C = self.modes.basis(np.atleast_1d(tau))
@@ -170,7 +171,8 @@ class Series:
             return (self.c + S @ self.alpha + C @ self.gamma,
                     np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
         g, dg = self.c, 0.0
-        for a, c, k, s_j, c_j in _at_time(self._modal(), tau):
+        for kind, w, a, c, k in self._modal():
+            s_j, c_j = _mode_at(kind, w, tau)
             g += a * s_j + c * c_j
             dg += a * (1.0 - k * c_j) + c * s_j
         return g, dg
@@ -179,15 +181,16 @@ class Series:
         """``g`` on a grid whose basis is ``S, C`` (:meth:`Modes.basis`)."""
         return self.c + S @ self.alpha + C @ self.gamma
 
-    def derivatives_at_zero(self, n: int) -> list[float]:
-        """``g(0), g'(0), ..., g^(n)(0)``: ``S^(2m+1)(0) = (-κ)^m``, ``C^(2m+2)(0) = (-κ)^m``
-        and the others vanish, so ``g^(2m+1)(0) = Σ α (-κ)^m``, ``g^(2m+2)(0) = Σ γ (-κ)^m``."""
-        return _at_zero(self.c, self.alpha.tolist(), self.gamma.tolist(),
-                        [-k for k in self.modes._kappa], n)
+    def derivatives_from_zero(self):
+        """``g(0), g'(0), ..., g^(p)(0), ...`` one at a time, as many as are asked for:
+        ``S^(2m+1)(0) = (-κ)^m``, ``C^(2m+2)(0) = (-κ)^m`` and the others vanish, so
+        ``g^(2m+1)(0) = Σ α (-κ)^m``, ``g^(2m+2)(0) = Σ γ (-κ)^m``."""
+        return _at_zero_terms(self.c, self.alpha.tolist(), self.gamma.tolist(),
+                              [-k for k in self.modes._kappa])
 
     def each_at_zero(self, size: float):
         """``(g^(p)(0), the size of its terms)`` for ``p = 0, 1, ...``, one at a time (as
-        :meth:`derivatives_at_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
+        :meth:`derivatives_from_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
         ``size`` the size of ``g(0)``: their rounding is a few ulps of it; a search that stops at
         the first derivative clear of rounding computes no more)."""
         minus = [-k for k in self.modes._kappa]
@@ -242,6 +245,7 @@ class Shape:
         self.modes = Modes(kappa)
         self.T = Q / root[:, None]
         self.P = C @ self.T
+        self.minus_kappa_P = -self.modes.kappa * self.P   # (each row as -κ * P[k] gives it)
         self.from_velocity = Q.T * root[None, :]
         self.from_force = self.T.T @ incidence
         # the contact forces and accelerations (K + N): from the forces at the start, and
@@ -266,12 +270,6 @@ SHAPES = 4096
 SHAPE_ENTRIES = 1_000_000
 
 
-def _at_time(modal: list, tau: float):
-    """``(α_j, γ_j, κ_j, S_j(τ), C_j(τ))`` of each mode of ``modal`` (:meth:`Series._modal`)
-    at one time ``tau`` [s], on Python floats, as :meth:`Modes.basis_at` computes them."""
-    return [(a, g, k, *_mode_at(kind, w, tau)) for kind, w, a, g, k in modal]
-
-
 def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
     """``S, C`` of one mode (``kind``: 1 harmonic, 0 rigid, -1 hyperbolic; ``w`` its
     ``sqrt|κ|`` [1/s]) at one time ``tau`` [s], from half angles (as :meth:`Modes.basis`)."""
@@ -286,14 +284,8 @@ def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
     return 2.0 * sw * c, 2.0 * sw * sw
 
 
-def _at_zero(c: float, alpha: list, gamma: list, factor: list, n: int) -> list[float]:
-    """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...`` (``n + 1`` terms)."""
-    terms = _at_zero_terms(c, alpha, gamma, factor)
-    return [next(terms) for _ in range(n + 1)]
-
-
 def _at_zero_terms(c: float, alpha: list, gamma: list, factor: list):
-    """The terms of :func:`_at_zero`, one at a time (as many as asked for)."""
+    """``c, Σ α, Σ γ, Σ α f, Σ γ f, Σ α f², ...``, one at a time (as many as asked for)."""
     yield c
     power, p = [1.0] * len(alpha), 1
     while True:
@@ -310,7 +302,7 @@ class Motion:
     velocity]; ``slope`` (K,) each contact's active slope ``s_k`` [force/length] (0 when open)
     and ``force`` (K,) its force at the start [force]; ``incidence`` (N, K) the model's
     (contact ``k`` pushes vehicle ``k`` back and ``k+1`` forward); ``shape``: their
-    :class:`Shape`, if already built.
+    :class:`Shape`, if already built (``slope`` is then not read).
     """
 
     def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None):
@@ -323,6 +315,7 @@ class Motion:
         self.a = shape.from_velocity @ v0                # q'(0)
         self.b = shape.from_force @ force                # q''(0)
         self.N = m.size
+        self._pa = self._rate = None
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
@@ -341,14 +334,24 @@ class Motion:
         return out[:, 0] if np.ndim(tau) == 0 else out
 
     def deformation(self, k: int, c: float, sign: float = 1.0) -> Series:
-        """``c + sign ΔD_k(τ)`` as a :class:`Series`."""
-        row = sign * self.P[k]
-        return Series(float(c), row * self.a, row * self.b, self.modes)
+        """``c + sign ΔD_k(τ)`` (``sign`` ±1) as a :class:`Series`."""
+        pa, pb = self._rows()
+        if sign < 0:
+            return Series(float(c), -pa[k], -pb[k], self.modes)
+        return Series(float(c), pa[k], pb[k], self.modes)
 
     def closing_rate(self, k: int, w0: float) -> Series:
         """``Ḋ_k(τ) = w0 + ΔḊ_k(τ)`` as a :class:`Series` (``q' = a S' + b S``)."""
-        row = self.P[k]
-        return Series(float(w0), row * self.b, -self.kappa * row * self.a, self.modes)
+        if self._rate is None:
+            self._rate = self.shape.minus_kappa_P * self.a
+        return Series(float(w0), self._rows()[1][k], self._rate[k], self.modes)
+
+    def _rows(self):
+        """``P a, P b`` (K, n): every contact's deformation in the modes (each row's products
+        as a row alone would give them)."""
+        if self._pa is None:
+            self._pa = (self.P * self.a, self.P * self.b)
+        return self._pa
 
 
 def _modes(C, slope, root):

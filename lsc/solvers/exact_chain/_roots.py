@@ -20,7 +20,7 @@ import numpy as np
 
 from ._modes import Modes, Series
 
-__all__ = ["earliest", "first_crossing", "extrema", "Stack", "PER_RADIAN", "TOUCH", "FLAT"]
+__all__ = ["earliest", "first_crossing", "Stack", "PER_RADIAN", "TOUCH", "FLAT"]
 
 #: Samples per radian of the fastest mode (the curvature bound does the rest).
 PER_RADIAN = 4.0
@@ -86,16 +86,6 @@ class Stack:
         return Stack(self.modes, self.c[rows], self.alpha[rows], self.gamma[rows],
                      [self._funcs[j] for j in rows])
 
-    def derivative(self) -> "Stack":
-        """Every function's derivative (:meth:`Series.derivative`)."""
-        return Stack(self.modes, self.alpha.sum(axis=1), self.gamma,
-                     -self.modes.kappa * self.alpha)
-
-    def on(self, tt):
-        """The functions (E, len(tt)) at times ``tt`` (1-d) [s]."""
-        S, C = self.modes.basis(tt)
-        return self.c[:, None] + self.alpha @ S.T + self.gamma @ C.T
-
     def curvature_bounds(self, T: float):
         """Bounds on each ``|g''|`` (E,) over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""
         return self.modes.curvature_bounds(self.alpha, self.gamma, T)
@@ -129,12 +119,12 @@ def earliest(funcs, lo: float, hi: float,
         unclear &= np.arange(unclear.shape[1])[None, :] >= first[:, None]
     times = tt.tolist()
     width = TOUCH * max(hi, 1e-300)
-    rows = np.flatnonzero(unclear.any(axis=1))
     # the functions in the order of their first unclear interval: one whose interval starts
     # after the earliest crossing found is not searched
-    for j in rows[np.argsort(unclear[rows].argmax(axis=1), kind="stable")].tolist():
+    rows, intervals = _unclear(unclear)
+    for j in rows:
         v, B, g = vals[j].tolist(), float(bounds[j]), stack.series(j)
-        for i in np.flatnonzero(unclear[j]).tolist():
+        for i in intervals(j):
             if best is not None and times[i] > best:
                 break
             a, ga = times[i], v[i]
@@ -146,6 +136,25 @@ def earliest(funcs, lo: float, hi: float,
                     best, best_j = tau, j
                 break
     return best, best_j
+
+
+#: Most samples in a window whose unclear intervals are listed on Python lists (cheaper than
+#: NumPy calls on a first window's few dozen; a long window's are left to NumPy).
+SHORT = 256
+
+
+def _unclear(unclear):
+    """``(rows, intervals)``: the rows of ``unclear`` (E, n) with an unclear interval, in the
+    order of their first one (the first row on a tie), and a function giving a row's
+    intervals."""
+    if unclear.shape[1] <= SHORT:
+        flags = unclear.tolist()
+        rows = sorted((j for j, row in enumerate(flags) if True in row),
+                      key=lambda j: flags[j].index(True))
+        return rows, lambda j: [i for i, u in enumerate(flags[j]) if u]
+    rows = np.flatnonzero(unclear.any(axis=1))
+    rows = rows[np.argsort(unclear[rows].argmax(axis=1), kind="stable")].tolist()
+    return rows, lambda j: np.flatnonzero(unclear[j]).tolist()
 
 
 def first_crossing(g: Series, lo: float, hi: float) -> float | None:
@@ -223,50 +232,7 @@ def _quadratic_crossing(g: Series, lo: float, hi: float) -> float | None:
     return down[0] if down else None
 
 
-def extrema(funcs, T: float) -> list[list[float]]:
-    """For each of ``funcs`` (a list of :class:`Series`, or their :class:`Stack`), the times
-    in ``[0, T]`` that hold its extreme values on it besides the ends: where its derivative
-    changes sign (refined to a few ulps), and the ends of the intervals where ``g`` provably
-    varies by less than :data:`FLAT` of its size (a derivative grazing zero there need not be
-    resolved: any point of the interval gives the value to rounding)."""
-    stack = funcs if isinstance(funcs, Stack) else Stack.of(funcs)
-    modes = stack.modes
-    out = [[] for _ in stack.c]
-    if T <= 0:
-        return out
-    ders = stack.derivative()
-    tt = _grid(modes, 0.0, T) if modes.fastest() > 0 else np.linspace(0.0, T, 3)
-    S, C = modes.basis(tt)
-    size = np.max(np.abs(stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T), axis=1)
-    vals = ders.c[:, None] + ders.alpha @ S.T + ders.gamma @ C.T
-    bounds = ders.curvature_bounds(T)
-    margin = (bounds * (tt[1] - tt[0]) ** 2 / 8.0)[:, None]
-    unclear = ((vals[:, :-1] * vals[:, 1:] <= 0)
-               | (np.minimum(np.abs(vals[:, :-1]), np.abs(vals[:, 1:])) <= margin))
-    times = tt.tolist()
-    for j in np.flatnonzero(unclear.any(axis=1)).tolist():
-        d = ders.series(j)
-        if not (d.alpha.any() or d.gamma.any()):
-            continue   # a constant: no interior extremum
-        start = _taylor_clear(d, T, float(np.sum(np.abs(stack.alpha[j]))))
-        B, flat = float(bounds[j]), FLAT * float(size[j])
-        idx = np.flatnonzero(unclear[j] & (tt[1:] > start))
-        if idx.size > MANY:   # (a derivative ringing: its plain sign changes refined at once)
-            a, b, da, db = tt[idx], tt[idx + 1], vals[j, idx], vals[j, idx + 1]
-            plain = ((da * db <= 0) & (da != db) & (a >= start)
-                     & ((np.maximum(np.abs(da), np.abs(db)) + B * (b - a) ** 2 / 8.0) * (b - a)
-                        > flat))
-            out[j] += _refine_many(d, a[plain], b[plain], da[plain], db[plain]).tolist()
-            idx = idx[~plain]
-        v = vals[j].tolist()
-        for i in idx.tolist():
-            a = max(times[i], start)
-            out[j] += _sign_changes(d, a, times[i + 1], v[i] if a == times[i] else d(a),
-                                    v[i + 1], B, flat)
-    return out
-
-
-#: More intervals than this to search in one function: its plain sign changes are refined
+#: More sign changes than this in one search of the peaks (:mod:`._peaks`): they are refined
 #: together (:func:`_refine_many`).
 MANY = 16
 #: How close :func:`_refine_many` puts a zero of a derivative, relative to its time.
@@ -332,9 +298,9 @@ def _taylor_clear(d: Series, T: float, rounding: float) -> float:
 
 
 #: A function that provably varies by less than this fraction of its size over an interval
-#: has its extreme values there at the interval's ends, to rounding (:func:`extrema`).
+#: has its extreme values there at the interval's ends, to rounding (:mod:`._peaks`).
 FLAT = 1e-15
-#: Bisection depth of an interval whose derivative grazes zero, in :func:`extrema`.
+#: Bisection depth of an interval whose derivative grazes zero (:func:`_sign_changes`).
 DEPTH = 10
 
 

@@ -19,8 +19,9 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
-from ._modes import Motion, Series, Shape, deformation_map
-from ._roots import PER_RADIAN, Stack, earliest, extrema
+from ._modes import Motion, Shape, deformation_map
+from ._peaks import segment_peaks
+from ._roots import PER_RADIAN, Stack, earliest
 
 __all__ = ["solve"]
 
@@ -48,10 +49,11 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                                                      t_end=t_end, max_events=max_events)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": time.perf_counter() - start}
-    # the peaks between the events, located exactly by the chain's own search
+    # the peaks between the events, located exactly by the chain's own search, all segments
+    # at once
     return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
                         stats=stats, n_samples=n_samples, y_post=totals["y_post"],
-                        peaks=chain.spans, interior=False, rows=chain.rows(segments))
+                        peaks=chain.spans(), interior=False, rows=chain.rows(segments))
 
 
 def _transitions(model):
@@ -80,7 +82,7 @@ class _Chain:
         self.incidence = -self.C.T
         self.t_scale = model.time_scale()
         self.length = model.v_scale * self.t_scale
-        self.spans = []   # (t0, t1, peak force (K,), peak acceleration (N,)) of each segment
+        self.records = []   # (t0, motion, force at the start, length, loading contacts)
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
         self.ends = []    # the state at the start and at the end of each segment
 
@@ -105,15 +107,17 @@ class _Chain:
         ``horizon`` [s])."""
         y0 = np.asarray(y0, float)
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
-        D0, W0 = self.C @ x0 - self.gap, self.C @ v0
+        # (the deformations and closing rates as Python floats: the same arithmetic as on
+        # NumPy's 0-d values, several times cheaper)
+        D0, W0 = (self.C @ x0 - self.gap).tolist(), (self.C @ v0).tolist()
         contacts = disc[: self.K]
-        slope = np.array([float(st["s"]) for st in contacts])
-        force = np.array([float(st["fa"]) + float(st["s"]) * (D0[k] - float(st["da"]))
-                          for k, st in enumerate(contacts)])
-        key = tuple(slope.tolist())
-        if key not in self.shapes:
-            self.shapes[key] = Shape(self.m, slope, self.incidence)
-        motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
+        key = tuple(float(st["s"]) for st in contacts)
+        force = np.array([float(st["fa"]) + s * (D0[k] - float(st["da"]))
+                          for k, (s, st) in enumerate(zip(key, contacts))])
+        shape = self.shapes.get(key)
+        if shape is None:
+            shape = self.shapes[key] = Shape(self.m, np.array(key), self.incidence)
+        motion = Motion(self.m, x0, v0, None, force, self.incidence, shape)
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if event is None and tau is not None:
@@ -126,7 +130,10 @@ class _Chain:
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
-        self.spans.append((t0, t0 + tau, *self._peaks(motion, force, tau)))
+        # (a contact whose closing rate is an armed event keeps closing all along: its force
+        # is monotone, its extremes at the segment's ends, none inside it to search)
+        rising = {self.model.events[i][0] for i, _, _ in funcs if self.model.events[i][1] == 2}
+        self.records.append((t0, motion, force, tau, rising))
         self.ends.append((y0, end))
 
         def dense(tt, motion=motion, t0=t0):
@@ -134,30 +141,21 @@ class _Chain:
 
         return Step(t0 + tau, end, event, dense, 1, 0)
 
-    def _peaks(self, motion, force, tau):
-        """The largest force of each contact (K,) and the acceleration of largest magnitude of
-        each vehicle (N,), signed, over ``[0, τ]``: at the ends or at an interior extremum
-        (:func:`~._roots.extrema`), each a series in closed form. The extrema are searched on
-        the quantities :class:`~._modes.Shape` names (the others have theirs at the same
-        times); every quantity is then evaluated at all the times found, once."""
-        shape = motion.shape
-        stack = Stack(motion.modes, shape.peak_of_force @ force, shape.peak_rows * motion.a,
-                      shape.peak_rows * motion.b)
-        times = [0.0, tau]
-        if shape.searched.size:
-            for found in extrema(stack.take(shape.searched), tau):
-                times += found
-        vals = stack.on(np.array(times))
-        acc = vals[self.K:]
-        return vals[: self.K].max(axis=1), acc[np.arange(self.N), np.argmax(np.abs(acc), axis=1)]
+    def spans(self) -> list:
+        """``(t0, t1, peak force (K,), peak acceleration (N,))`` of each segment: the largest
+        force of each contact and the acceleration of largest magnitude of each vehicle,
+        signed, at the segment's ends or at an interior extremum, every segment searched at
+        once after the loop (:func:`~._peaks.segment_peaks`)."""
+        peaks = segment_peaks([rec[1:] for rec in self.records], self.K)
+        return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
 
     # ------------------------------------------------------------------ events
     def _event_functions(self, motion, disc, D0, W0, x0, v0):
         """``[(event index, Series, tolerance at the start)]`` for every armed event."""
-        tol_d = START_TOL * self.length + 16 * _EPS * float(np.max(np.abs(x0)))
+        tol_d = START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
         # force k tol_d drives the rate's derivatives as ω tol_d does its value)
-        tol_w = START_TOL * self.model.v_scale + 16 * _EPS * float(np.max(np.abs(v0))) \
+        tol_w = START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist())) \
             + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
         out = []
         for i in self.model.active_events(disc):
@@ -231,13 +229,15 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     order = 2 * g.alpha.size + 1
     if abs(g.c) > tol:
         return 0.0
-    d = g.derivatives_at_zero(order)
+    terms = g.derivatives_from_zero()
+    next(terms)   # (g(0), within tol of zero)
     for p in range(1, order + 1):
-        if abs(d[p]) > tol * omega ** p:
+        dp = next(terms)   # (each computed only where the ones below it are not clear)
+        if abs(dp) > tol * omega ** p:
             break
     else:
         return None
-    if d[p] < 0:
+    if dp < 0:
         return 0.0
     # g(τ) >= d_p τ^p / p! - B τ^(p+1) / (p+1)!, B >= |g^(p+1)|: positive up to (p+1) d_p / B
     lower = g
@@ -245,5 +245,5 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
         lower = lower.derivative()
     T = min(limit, 1.0 / omega) if math.isfinite(limit) else 1.0 / omega
     B = lower.curvature_bound(T)
-    clear = (p + 1) * d[p] / B if B > 0 else T
+    clear = (p + 1) * dp / B if B > 0 else T
     return min(0.5 * clear, T)

@@ -1,0 +1,147 @@
+"""The peaks inside the segments of an exact chain (lsc/solvers/exact_chain/_peaks.py: every
+segment searched after the loop in one stacked pass): each segment's largest contact forces and
+accelerations of largest magnitude against a dense brute force on the model's own forces,
+evaluated on the segment's closed-form motion, on random chains (tables with a plateau, gaps,
+restitutions 0.05 to 1), on a falling table piece (hyperbolic modes) and on the pile-up of
+scripts/bench_chain.py (a force whose derivative starts within rounding of zero, after a max
+deformation: searched from where its Taylor bound clears it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import Phase, example, given, settings
+
+import lsc
+from lsc.model import HybridModel
+
+from helpers import HARD
+from test_exact_chain import chains
+
+#: Random chains in the default run.
+CASES = 60 if HARD else 5
+NO_SHRINK = (Phase.explicit, Phase.reuse, Phase.generate)
+#: Dense samples per segment of the brute force.
+DENSE = 4_001
+
+PILE_UP = {
+    "units": "US",
+    "vehicles": [{"weight": 3500, "speed": "15 mph"}, {"weight": 2800, "speed": 0},
+                 {"weight": 4200, "speed": 0}],
+    "contacts": [{"loading": {"stiffness": 24000}, "unloading": {"restitution": 0.4}},
+                 {"loading": {"stiffness": 50000}, "unloading": {"restitution": 0.3},
+                  "gap": 0.1}]}
+
+#: A front contact whose table falls after 0.05 ft (a hyperbolic mode while on that piece).
+FALLING = {
+    "units": "US",
+    "vehicles": [{"mass": 300.0, "speed": 25.0}, {"mass": 150.0, "speed": 0.0},
+                 {"mass": 400.0, "speed": 0.0}],
+    "contacts": [{"loading": {"table": [[0, 0], [0.05, 2000.0], [0.1, 1200.0],
+                                        [1000.0, 1200.0 + 1e7]]},
+                  "unloading": {"restitution": 0.3}, "gap": 0.02},
+                 {"loading": {"stiffness": 1e5}, "unloading": {"restitution": 0.6}}]}
+
+
+def _segments(scene):
+    """The chain's segments and the peaks the stacked pass finds in each."""
+    from lsc.solvers.exact_chain._solve import _Chain, _transitions
+    from lsc.solvers.segments import run_segments
+
+    model = HybridModel(lsc.Scene.load(scene))
+    chain = _Chain(model)
+    segments, *_ = run_segments(_transitions(model), chain.advance, max_events=200)
+    return model, segments, chain.spans()
+
+
+def _dense(model, segment):
+    """The model's contact forces (K, n) and accelerations (N, n) on DENSE points of the
+    segment's motion (its ends included)."""
+    tt = np.linspace(segment.t0, segment.t1, DENSE)
+    Y = segment.dense(tt)
+    p = dict(model.params, gap=np.asarray(model.params["gap"], float)[:, None])
+    F, _, acc = model.accelerations(Y, segment.disc, p)
+    return np.broadcast_to(F, (model.K, DENSE)), acc
+
+
+def _grid_error(values):
+    """How far the largest value of each row (rows, n) of equally spaced samples may lie above
+    its samples: ``max|f''| h²/8``, ``max|f''| h²`` from the second differences (twice, as a
+    margin)."""
+    return np.abs(np.diff(values, 2, axis=1)).max(axis=1) / 4.0
+
+
+def _check(scene):
+    model, segments, spans = _segments(scene)
+    assert len(spans) == len(segments) > 0
+    F_all, a_all = zip(*(_dense(model, s) for s in segments))
+    f_scale = max(float(np.max(np.abs(F))) for F in F_all) or 1.0
+    a_scale = max(float(np.max(np.abs(a))) for a in a_all) or 1.0
+    for seg, (t0, t1, force, acc), F, a in zip(segments, spans, F_all, a_all):
+        assert (t0, t1) == (seg.t0, seg.t1)
+        # no peak missed: at least every dense sample (to the rounding of the deformations,
+        # differences of positions) ...
+        assert np.all(force >= F.max(axis=1) - 1e-9 * f_scale), (force, F.max(axis=1))
+        assert np.all(np.abs(acc) >= np.abs(a).max(axis=1) - 1e-9 * a_scale)
+        # ... and a value the motion takes: above the dense samples by their grid's error only
+        over = _grid_error(F) + 1e-9 * f_scale
+        assert np.all(force <= F.max(axis=1) + over), (force, F.max(axis=1), over)
+        j = np.argmax(np.abs(a), axis=1)
+        dense_acc = a[np.arange(a.shape[0]), j]
+        over = _grid_error(a) + 1e-9 * a_scale
+        assert np.all(np.abs(acc - dense_acc) <= over), (acc, dense_acc, over)
+
+
+@settings(max_examples=CASES, deadline=None, phases=NO_SHRINK)
+@given(chains(tables=True, pushed_shut=False))
+@example(PILE_UP)
+@example(FALLING)
+def test_segment_peaks_match_a_dense_brute_force(scene):
+    """Each segment's largest contact force and its vehicles' accelerations of largest magnitude
+    (signed) equal those of a dense sampling of the model's forces on its motion: at least every
+    sample to rounding (none missed), at most above them by the sampling's own error."""
+    _check(scene)
+
+
+def test_the_pile_up_has_a_force_searched_from_its_taylor_bound(monkeypatch):
+    """The pile-up of the benchmark has a segment that starts at a contact's max deformation,
+    where the derivative of its force is zero to rounding: its search starts where the Taylor
+    bound clears it (later than 0), and the peaks are still the brute force's."""
+    from lsc.solvers.exact_chain import _peaks
+
+    starts = []
+
+    def spy(d, T, rounding):
+        starts.append(_roots_taylor_clear(d, T, rounding))
+        return starts[-1]
+
+    _roots_taylor_clear = _peaks._taylor_clear
+    monkeypatch.setattr(_peaks, "_taylor_clear", spy)
+    _check(PILE_UP)
+    assert any(t > 0 for t in starts), starts
+
+
+def test_segments_searched_in_windows_give_the_same_peaks(monkeypatch):
+    """A long segment (a ringing contact's) is searched in windows of PASS samples, and the
+    segments are grouped by their sizes: with windows of 3 samples, every segment of a chain
+    with re-closings is cut into many, and the peaks are those of one pass to rounding (and
+    still the brute force's)."""
+    from lsc.solvers.exact_chain import _peaks
+
+    scene = {"units": "US",
+             "vehicles": [{"mass": 120.0, "speed": 20.0}, {"mass": 60.0, "speed": 0.0},
+                          {"mass": 300.0, "speed": 0.0}, {"mass": 90.0, "speed": -3.0}],
+             "contacts": [{"loading": {"stiffness": 2e4}, "unloading": {"restitution": 0.8},
+                           "gap": 0.05},
+                          {"loading": {"stiffness": 3e5}, "unloading": {"restitution": 0.5}},
+                          {"loading": {"stiffness": 5e3}, "unloading": {"restitution": 0.9},
+                           "gap": 0.2}]}
+    whole = _segments(scene)[2]
+    monkeypatch.setattr(_peaks, "PASS", 3)
+    cut = _segments(scene)[2]
+    assert len(whole) == len(cut) > 5
+    for (t0, t1, f, a), (u0, u1, g, b) in zip(whole, cut):
+        assert (t0, t1) == (u0, u1)
+        assert np.allclose(f, g, rtol=1e-13, atol=1e-13 * np.max(np.abs(f)))
+        assert np.allclose(a, b, rtol=1e-13, atol=1e-13 * np.max(np.abs(a)))
+    _check(scene)
