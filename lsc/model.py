@@ -43,7 +43,8 @@ MAX_ANGLE = 0.5
 #: here is a length (and a Kelvin law's ``separate``, ``k D + c Ḋ``, is a force).
 EVENT_UNITS = {"vmax": "velocity", "turn": "velocity", "recompress": "velocity",
                "stop": "velocity", "break_forward": "force", "break_backward": "force",
-               "failure": "force"}
+               "failure": "force", "unlock_zero": "force", "unlock_line": "force",
+               "settle": "velocity"}
 
 
 def _event_unit(part, kind: str) -> str:
@@ -84,7 +85,7 @@ class HybridModel:
         # force alone is an effect watching the contact force.
         self.failures = [FailureEffect(k, c.failure) for k, c in enumerate(scene.contacts)
                          if c.failure is not None and c.failure.post_failure is None]
-        self.parts = [*self.laws, *self.brakes, *self.failures]
+        self.parts = [*self.laws, *self.brakes, *self.failures, *self._more_parts()]
         self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
         self._work_idx = np.asarray(self.work, dtype=int)
         # incidence (N, K): contact k pushes vehicle k back and vehicle k+1 forward
@@ -107,6 +108,9 @@ class HybridModel:
                                  for j, w in self.events)
         self.v_scale = float(self.speed_scale())
 
+    def _more_parts(self) -> list:
+        return []   # (parts after the effects: lsc.locking.LockingModel's locks)
+
     def features(self) -> frozenset[str]:
         """Everything this scene uses that a backend must solve (its contract,
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
@@ -116,7 +120,7 @@ class HybridModel:
         out = set()
         for law in self.laws:
             out |= law.features()
-        out |= {part.feature for part in self.parts[self.K:]}
+        out |= {part.feature for part in (*self.brakes, *self.failures)}
         if np.any(np.asarray(self.params["gap"], float) > 0):
             out.add("gap:open")
         return frozenset(out)
@@ -271,6 +275,10 @@ class HybridModel:
         """What event ``i`` was, from the discrete state before and after it."""
         j, w = self.events[i]
         return self.parts[j].event_name(w, before[j], after[j])
+
+    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
+        """``[(name, index)]``: other parts event ``i`` changed (:mod:`lsc.locking`)."""
+        return []
 
     def event_index(self, i: int) -> int:
         """The contact (or vehicle, for a brake event) that event ``i`` concerns."""

@@ -37,6 +37,7 @@ from scipy.optimize import brentq
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
+from ..locking import locking_model
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
@@ -347,6 +348,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         raise SceneError("solver.rtol", f"SciPy's integrators accept rtol >= 100 machine epsilons "
                          f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
                          "'closed-form' where they apply")
+    # a chain's contacts pushed shut lock instead of chattering (lsc.locking)
+    model = locking_model(model)
     p = model.params
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)

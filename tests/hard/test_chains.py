@@ -12,7 +12,9 @@ only: a (near-)plastic contact that a neighbour keeps pushing shut closes, stops
 closes again at an ever higher rate (the vehicles would move together; the IF-D law has no
 sticking mode), which either ends, after hundreds of events whose sequence the smallest
 difference in timing changes (so do the final speeds, by ~e of the closing speed), or reaches the
-event or step limit with a clear SimulationError. See docs/reliability.rst.
+event or step limit with a clear SimulationError. SciPy now locks such a pair (lsc.locking:
+tests/test_locked_pairs.py) and most of these chains finish with a few dozen events; the rest
+still stop at a limit, so the tolerance of _solve_or_chatter stays. See docs/reliability.rst.
 """
 
 from __future__ import annotations
