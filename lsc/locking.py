@@ -37,7 +37,7 @@ from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "WATCH_RESTITUTION",
-           "locking_model", "can_lock", "clusters", "cluster_forces"]
+           "locking_model", "can_lock", "warning", "clusters", "cluster_forces"]
 
 #: A contact that closes again at its permanent set at a closing speed of at most this fraction
 #: of the speed scale locks at its next turning point on the line, where it is pressed.
@@ -335,6 +335,15 @@ class LockingModel(HybridModel):
                 break
             new = self._release(*out[0], y, new, p)
         return new
+
+
+def warning(contacts) -> str:
+    """The Result's warning where ``contacts`` (their indices) locked: the motion then left the
+    plain IF-D law, which the other backends solve (they have no locks), and may differ from it."""
+    which = ", ".join(str(k) for k in contacts)
+    return (f"contact(s) {which} locked (pressed shut, the pair moved as one body; see 'Locked "
+            f"pairs' in the physics docs): the plain IF-D law, which method 'exact-chain' and "
+            f"'diffrax' solve, chatters here and may end differently")
 
 
 def can_lock(model) -> bool:

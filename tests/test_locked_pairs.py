@@ -25,6 +25,7 @@ import pytest
 from hypothesis import given, settings
 
 import lsc
+import lsc.locking
 from hard.common import chain, check_result, closing_scale
 from hard.test_chains import chains as hard_chains
 
@@ -106,6 +107,9 @@ def test_pair_pushed_shut_moves_as_one_merged_vehicle(integrator):
         check_result(r)
         assert len(r.events) < FEW_EVENTS
         assert any("lock" in e.kind for e in r.events)
+        # the Result says the motion left the plain law (the other backends' model)
+        locked = sorted({e.index for e in r.events if "lock" in e.kind.split("+")})
+        assert r.warnings == (lsc.locking.warning(locked),) and locked == [1]
         # the pair leaves as one body
         assert abs(r.v_final[1] - r.v_final[2]) <= 1e-9 * V0
         dv = np.array([r.delta_v[0], r.delta_v[1]])

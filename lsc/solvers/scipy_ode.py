@@ -37,6 +37,7 @@ from scipy.optimize import brentq
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
+from .. import locking
 from ..locking import locking_model
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
@@ -472,6 +473,9 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": totals["nfev"],
              "segments": len(segments), "wall_time": wall}
+    locked = sorted({e.index for e in events if "lock" in e.kind.split("+")})
+    if locked:   # the chain left the plain IF-D law: say so (lsc.locking)
+        stats["warnings"] = [locking.warning(locked)]
     return build_result(model, segments, events, y, disc, method=f"scipy-{integrator}",
                         tolerances={"rtol": rtol, "atol": atol}, stats=stats,
                         n_samples=n_samples, y_post=totals["y_post"])
