@@ -19,45 +19,138 @@ line's force at ``D_lock`` (the contact then reloads along its line, or its load
 held deformation keeps the line's stored energy, and the locked force does no work (``dD/dt = 0``),
 so the energy balance holds exactly.
 
-A contact locks (:class:`LockPart`, driven by :class:`lsc.model.HybridModel`):
+A lock is an approximation of the law (a rigid link in place of ringing on a very stiff
+unloading line), acceptable only where the plain law cannot be followed: every chain that the
+plain law finishes without chattering gives exactly the numbers it gives without locks. Only a
+contact that unloads by a restitution below :data:`WATCH_RESTITUTION`, in a chain of three or
+more IF-D contacts with no brake and no failure force, can lock (the model feature
+:data:`FEATURE`, :func:`lock_features`), and it locks (:class:`LockPart`, driven by
+:class:`LockingModel`):
 
-- at its max deformation, where the law would separate at once (``e = 0``, or a rebound below
-  the integrators' resolution) and the neighbours press the pair (``0 < F_k < F_max``): before,
-  the pair closed again at the same instant, again and again;
-- at a turning point on its unloading line (``dD/dt`` through zero) after it closed again at a
-  closing speed of at most :data:`LOCK_SPEED` of the speed scale, where the neighbours press it
-  (``0 < F_k < F_top``).
+- at its max deformation where the law separates at once (``e = 0``), or rebounds by less
+  than the integrators resolve (``e <`` :data:`LOCK_RESTITUTION`), and the neighbours press
+  the pair (``0 < F_k < F_max``): the plain law then closes it again at once, at its max
+  deformation, without end (the lock is that chatter's limit; it releases at zero force into
+  the law's own rebound, so a press that ends at once loses nothing but the ``e² D_max``
+  ringing the integrators do not resolve);
+- at the next turning point on its line (``dD/dt`` through zero downward, or its max
+  deformation after reloading past ``D_max``), where pressed (``0 < F_k < F_top``), after it
+  has closed again :data:`CHATTER_CLOSINGS` times while pressed (at its permanent set, or
+  reloading past ``D_max``; ``F_k > 0`` at the closing). A separation where the neighbours do
+  not press the pair (``F_k <= 0``: it leaves) starts the count again. A chain whose contacts
+  close again fewer times is solved by the plain law, bit for bit.
+
+Why :data:`CHATTER_CLOSINGS` = 8: a pressed pair with ``e < 0.05`` that comes back to its
+permanent set or to ``D_max`` is not bouncing apart but ringing on its line, about ``1 / e``
+times faster than its contact (its line is ``1 / e²`` times stiffer), for as long as the
+neighbours press it: hundreds to thousands of events for stiffness ratios of 1:1000. Eight
+closings are more than a genuine rebound sequence of such a contact has (each rebound's speed
+is ``e`` times the last: ``0.05^8 = 4e-11`` of the first, below the integrators' resolution),
+and few enough that a chattering chain locks within a few dozen events.
+
+A backend that cannot lock (exact-chain: :class:`ChatterGuard`) stops with a
+:class:`~lsc.errors.SimulationError` at the moment a lock fires or is armed, naming the contact,
+the time and the remedy; diffrax refuses a scene with the feature (its declaration lacks it).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .errors import SimulationError
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .model import HybridModel
 
-__all__ = ["LockPart", "LockingModel", "LOCK_SPEED", "LOCK_RESTITUTION", "WATCH_RESTITUTION",
-           "locking_model", "can_lock", "warning", "clusters", "cluster_forces"]
+__all__ = ["LockPart", "LockingModel", "ChatterGuard", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
+           "LOCK_RESTITUTION",
+           "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock", "warning",
+           "clusters", "cluster_forces", "hold_force"]
 
-#: A contact that closes again at its permanent set at a closing speed of at most this fraction
-#: of the speed scale locks at its next turning point on the line, where it is pressed.
-LOCK_SPEED = 1e-3
+#: A contact that has closed again this many times while pressed (see the module) locks at its
+#: next turning point on its line where pressed.
+CHATTER_CLOSINGS = 8
 
-#: A contact with a restitution below this locks at its max deformation where it is pressed: its
-#: unloading line is over a million times stiffer than its loading, and a pair pressed on it
-#: rings at over a thousand times the contact's frequency (the integrators' step limit).
-LOCK_RESTITUTION = 1e-3
-
-#: Only a contact with a restitution below this watches for a slow closing again
-#: (:data:`LOCK_SPEED`): from 0.05 up, a chain follows the IF-D law as before, event by event.
+#: Only a contact unloading by a restitution below this can lock: from 0.05 up, a chain follows
+#: the IF-D law event by event (a pressed pair rings on its line at most ~20 times per period of
+#: its contact, which the integrators follow).
 WATCH_RESTITUTION = 0.05
+
+#: A contact with a restitution below this locks at its max deformation where pressed (rule 1):
+#: its rebound, ``e² D_max`` wide, is below 1e-10 of ``D_max`` (SciPy's default rtol), which
+#: the integrators do not resolve, and a pair pressed on it rings over 1e5 times faster than
+#: its contact (the plain law chatters). From 1e-5 on, only a counted chatter locks.
+LOCK_RESTITUTION = 1e-5
+
+#: The model feature of a scene whose pairs may lock (:func:`lock_features`).
+FEATURE = "contact:lock"
+
+
+def can_lock(model) -> bool:
+    """Whether ``model``'s contacts can lock: a chain (three vehicles or more) of IF-D contacts
+    with no brake and no failure effect (whose forces the locked force would need)."""
+    return (model.N >= 3 and not model.brakes and not model.failures
+            and all(isinstance(law, HysteresisLaw) for law in model.laws))
+
+
+def may_lock(model, k: int, p=None, below: float = WATCH_RESTITUTION) -> bool:
+    """Whether contact ``k`` of a chain that :func:`can_lock` may lock: it unloads by a
+    restitution below ``below`` (``p``: the parameters, the model's own by default)."""
+    p = model.params if p is None else p
+    return model.laws[k].unload_kind == "restitution" and float(p["contacts"][k]["e"]) < below
+
+
+def locks_at_max(model, k: int, w: int, was: dict, now: dict, p) -> bool:
+    """Whether contact ``k``'s law event ``w`` is a max deformation where rule 1 locks a
+    pressed pair: an instant separation, or a restitution below :data:`LOCK_RESTITUTION`."""
+    return w == 2 and int(was["mode"]) == MODE_LOADING and (
+        int(now["mode"]) == MODE_OPEN or may_lock(model, k, p, LOCK_RESTITUTION))
+
+
+def lock_features(model) -> frozenset[str]:
+    """``{FEATURE}`` where some pair of ``model`` may lock, else empty (the backend contract:
+    :meth:`lsc.model.HybridModel.features`)."""
+    if can_lock(model) and any(may_lock(model, k) for k in range(model.K)):
+        return frozenset({FEATURE})
+    return frozenset()
+
+
+def hold_force(model, y, disc, p, locked, k) -> float:
+    """The force [force] contact ``k`` carries with the contacts ``locked`` locked (the laws'
+    forces of the others in discrete state ``disc``, :func:`cluster_forces`)."""
+    F = HybridModel.forces(model, y, disc, p)
+    rows, _ = cluster_forces(F, p["m"], clusters(locked, model.N), model.K)
+    return float(rows[k])
+
+
+def closing_step(w: int, was: dict, now: dict) -> str | None:
+    """What law event ``w`` (0 lo, 1 hi, 2 vmax) from law state ``was`` to ``now`` did to the
+    count of closings: ``"close"`` (closed again at the permanent set, or reloaded past
+    ``D_max``), ``"open"`` (separated), or ``None``."""
+    mb, ma = int(was["mode"]), int(now["mode"])
+    if w == 1 and ((mb == MODE_OPEN and ma != MODE_OPEN)
+                   or (mb == MODE_UNLOADING and ma == MODE_LOADING)):
+        return "close"
+    return "open" if ma == MODE_OPEN and mb != MODE_OPEN else None
+
+
+def recount(step: str, pressed: bool, count: float, mode_after: int) -> tuple[float, float]:
+    """``(count, watch)`` after a closing ``step`` (:func:`closing_step`): a closing while
+    pressed counts; a separation while not pressed starts again. ``watch``: 0 (none), 1 (lock
+    at the next turning point on the line), 2 (lock at the next max deformation)."""
+    if step == "open":
+        return (float(count) if pressed else 0.0), 0.0
+    count = float(count) + (1.0 if pressed else 0.0)
+    if count < CHATTER_CLOSINGS:
+        return count, 0.0
+    return count, (1.0 if int(mode_after) == MODE_UNLOADING else 2.0)
 
 
 class LockPart:
     """The lock of contact ``k`` (a part of the hybrid model, after the laws).
 
-    Discrete state: ``mode`` (1 while locked), ``watch`` (1 after a slow closing onto the line:
-    the ``settle`` event is armed), ``kind`` (0: locked at a max deformation, released at zero
+    Discrete state: ``mode`` (1 while locked), ``count`` (closings while pressed,
+    :func:`recount`), ``watch`` (1: the ``settle`` event is armed, the lock fires at the next
+    turning point on the line; 2: at the next max deformation), ``kind`` (0: locked at a max deformation, released at zero
     force by the law's own transition; 1: locked on the line, released onto it), ``ftop``
     [force] and ``dlock`` [length], and the law's state before the lock under ``law_*`` keys.
 
@@ -71,14 +164,14 @@ class LockPart:
 
     @staticmethod
     def init() -> dict:
-        """Unlocked, not watching."""
-        return {"mode": 0, "watch": 0.0, "kind": 0.0, "ftop": 0.0, "dlock": 0.0}
+        """Unlocked, not watching, no closing counted."""
+        return {"mode": 0, "count": 0.0, "watch": 0.0, "kind": 0.0, "ftop": 0.0, "dlock": 0.0}
 
     @staticmethod
     def armed(st) -> tuple:
         """Which events can fire in this state."""
         on = bool(st["mode"])
-        return (on, on, bool(st["watch"]) and not on)
+        return (on, on, st["watch"] == 1.0 and not on)
 
     @staticmethod
     def event_linear(laws) -> tuple:
@@ -88,15 +181,15 @@ class LockPart:
     @staticmethod
     def events(force, closing_rate, st) -> list:
         """``[F_k, F_top - F_k, dD/dt]`` where armed (1 where not)."""
-        on, watch = bool(st["mode"]), bool(st["watch"]) and not st["mode"]
+        on, watch = bool(st["mode"]), st["watch"] == 1.0 and not st["mode"]
         return [force if on else 1.0, st["ftop"] - force if on else 1.0,
                 closing_rate if watch else 1.0]
 
     @staticmethod
     def locked(st, law_state: dict, ftop: float, D: float, kind: int) -> dict:
         """The lock's state when it locks with the law in ``law_state``."""
-        out = {"mode": 1, "watch": 0.0, "kind": float(kind), "ftop": float(ftop),
-               "dlock": float(D)}
+        out = {"mode": 1, "count": float(st["count"]), "watch": 0.0, "kind": float(kind),
+               "ftop": float(ftop), "dlock": float(D)}
         out.update({"law_" + key: val for key, val in law_state.items()})
         return out
 
@@ -243,64 +336,65 @@ class LockingModel(HybridModel):
                 out.append((self._lock_name(before[jj], after[jj], after[lock.k]), lock.k))
         return out
 
-    def _hold_force(self, y, disc, p, locked, k) -> float:
-        """The force [force] contact ``k`` carries with the contacts ``locked`` locked."""
-        F = self._law_forces(y, disc, p)
-        rows, _ = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
-        return float(rows[k])
-
     def _relock(self, i, y, before, new, p):
-        """The locks after event ``i`` (its own transition already in ``new``): lock, watch or
-        release (:mod:`lsc.locking`), then release every lock its force has left
+        """The locks after event ``i`` (its own transition already in ``new``): lock, count,
+        watch or release (:mod:`lsc.locking`), then release every lock its force has left
         (:meth:`_settle_locks`)."""
         j, w = self.events[i]
         off = self._lock_offset
-        D, Dd = self.deformation(y, p)
-        if j < self.K:
-            k, law = j, self.laws[j]
-            was, now = before[k], new[k]
-            top = law.force(D[k], 0.0, was)
-            if w == 2 and was["mode"] == MODE_LOADING and now["mode"] == MODE_OPEN:
-                new = self._try_lock(k, y, new, p, was, now, top, 0)
-            elif w == 2 and was["mode"] == MODE_LOADING and (
-                    new[off + k]["watch"] or self._restitution_below(k, p, LOCK_RESTITUTION)):
-                new = self._try_lock(k, y, new, p, was, now, top, 0)
-            elif (w == 1 and was["mode"] == MODE_OPEN and now["mode"] == MODE_UNLOADING
-                  and Dd[k] <= LOCK_SPEED * self.v_scale
-                  and self._restitution_below(k, p, WATCH_RESTITUTION)):
-                new[off + k] = dict(new[off + k], watch=1.0)
-            if int(new[k]["mode"]) == MODE_OPEN:
-                new[off + k] = dict(new[off + k], watch=0.0)
+        if j < self.K and may_lock(self, j, p):
+            # (the locks this event released first: whether the pair is pressed is decided
+            # with the neighbours' forces after the event)
+            new = self._law_event(j, w, y, before[j], self._settle_locks(y, new, p), p)
         elif j >= off:
             k = j - off
-            if w == 2:   # settle: a turning point on the line after a slow closing
+            if w == 2:   # settle: the turning point on the line the watch waited for
                 new[j] = dict(new[j], watch=0.0)
                 st = new[k]
                 if int(st["mode"]) == MODE_UNLOADING:
+                    D, _ = self.deformation(y, p)
                     ftop = self.laws[k].force(D[k], 0.0, st)
                     new = self._try_lock(k, y, new, p, st, st, ftop, 1)
             else:
                 new = self._release(k, w == 1, y, new, p)
         return self._settle_locks(y, new, p)
 
-    def _restitution_below(self, k, p, bound: float) -> bool:
-        """Whether contact ``k`` unloads by a restitution below ``bound``."""
-        return (self.laws[k].unload_kind == "restitution"
-                and float(p["contacts"][k]["e"]) < bound)
+    def _law_event(self, k, w, y, was, new, p):
+        """``new`` after contact ``k``'s law event ``w`` from law state ``was``: locked at a
+        max deformation (an instant separation, or one the watch waited for) where pressed,
+        else its closings counted (:func:`recount`)."""
+        now, lock = new[k], new[self._lock_offset + k]
+        if locks_at_max(self, k, w, was, now, p) or (
+                w == 2 and int(was["mode"]) == MODE_LOADING and lock["watch"] == 2.0):
+            D, _ = self.deformation(y, p)
+            new = self._try_lock(k, y, new, p, was, now, self.laws[k].force(D[k], 0.0, was), 0)
+            if new[self._lock_offset + k]["mode"]:
+                return new
+            # (not pressed: the turning point passed; a line too stiff to resolve is watched
+            # from the start, its turning points lock where pressed)
+            lock = dict(lock, watch=1.0 if int(now["mode"]) == MODE_UNLOADING else 0.0)
+        step = closing_step(w, was, now)
+        if step is not None:
+            pressed = hold_force(self, y, new, p, sorted({*self.locked(new), k}), k) > 0.0
+            count, watch = recount(step, pressed, lock["count"], now["mode"])
+            lock = dict(lock, count=count, watch=watch)
+        new = list(new)
+        new[self._lock_offset + k] = lock
+        return new
 
     def _try_lock(self, k, y, new, p, saved, records, ftop, kind):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
         range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
         the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
-        force = self._hold_force(y, new, p, sorted({*self.locked(new), k}), k)
+        force = hold_force(self, y, new, p, sorted({*self.locked(new), k}), k)
         if not 0.0 < force < float(ftop):
             return new
         D, _ = self.deformation(y, p)
         new = list(new)
         new[k] = dict(records, mode=MODE_UNLOADING, da=0.0, fa=0.0, s=0.0, lo=-BIG, wl=BIG,
                       hi=BIG, vm=0.0)
-        new[self._lock_offset + k] = LockPart.locked(None, saved, float(ftop), float(D[k]),
-                                                     kind)
+        new[self._lock_offset + k] = LockPart.locked(new[self._lock_offset + k], saved,
+                                                     float(ftop), float(D[k]), kind)
         return new
 
     def _release(self, k, high: bool, y, new, p):
@@ -318,7 +412,7 @@ class LockingModel(HybridModel):
                 2, lock["dlock"], 0.0, law_state, p["contacts"][k], np, mu=mu[k])])[0]
         new = list(new)
         new[k] = law_state
-        new[off + k] = LockPart.init()
+        new[off + k] = dict(LockPart.init(), count=lock["count"])   # (a pair that chattered)
         return new
 
     def _settle_locks(self, y, new, p):
@@ -337,27 +431,74 @@ class LockingModel(HybridModel):
         return new
 
 
-def warning(contacts) -> str:
-    """The Result's warning where ``contacts`` (their indices) locked: the motion then left the
-    plain IF-D law, which the other backends solve (they have no locks), and may differ from it."""
-    which = ", ".join(str(k) for k in contacts)
-    return (f"contact(s) {which} locked (pressed shut, the pair moved as one body; see 'Locked "
-            f"pairs' in the physics docs): the plain IF-D law, which method 'exact-chain' and "
-            f"'diffrax' solve, chatters here and may end differently")
-
-
-def can_lock(model) -> bool:
-    """Whether ``model``'s contacts can lock: a chain (three vehicles or more) of IF-D contacts
-    with no brake and no failure effect (whose forces the locked force would need)."""
-    return (model.N >= 3 and not model.brakes and not model.failures
-            and all(isinstance(law, HysteresisLaw) for law in model.laws))
+def warning(locks) -> str:
+    """The Result's warning where contacts locked: ``locks``, ``[(contact, time [s])]``. The
+    motion then left the plain IF-D law (which chatters there) for its locked-pair model."""
+    times = {}
+    for k, t in locks:
+        times.setdefault(k, []).append(t)
+    which = "; ".join(f"contact {k} at t = {ts[0]:.6g} s" + (f" and {len(ts) - 1} more times "
+                      f"to t = {ts[-1]:.6g} s" if len(ts) > 1 else "")
+                      for k, ts in sorted(times.items()))
+    return (f"a pressed pair locked ({which}): the plain IF-D law chatters there (it closes "
+            f"again and again); the pair moved as one body while pressed, a model of that "
+            f"chatter's limit (see 'Locked pairs' in the physics docs); method 'exact-chain' "
+            f"stops there instead, and 'diffrax' refuses such chains")
 
 
 def locking_model(model):
     """``model`` with its locks (:class:`LockingModel`, built once per model), or ``model``
-    itself where it has them or cannot lock."""
-    if isinstance(model, LockingModel) or not can_lock(model):
+    itself where it has them or has no pair that may lock (:func:`lock_features`)."""
+    if isinstance(model, LockingModel) or not lock_features(model):
         return model
     if getattr(model, "_locking_model", None) is None:
         model._locking_model = LockingModel(model.scene)
     return model._locking_model
+
+
+class ChatterGuard:
+    """The transitions of a backend that solves the plain law (exact-chain), watching for the
+    lock rule: a :class:`~lsc.errors.SimulationError` at the moment a lock would fire (an
+    instant separation at a max deformation while pressed) or is armed (the
+    :data:`CHATTER_CLOSINGS`-th closing while pressed), naming the contact, the time and the
+    remedy. ``transitions``: what the backend's segment loop drives (it delegates to them)."""
+
+    def __init__(self, transitions, model):
+        self._inner, self._model = transitions, model
+        self._counts = [0.0] * model.K
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+    def apply_event(self, i, t, y, disc, p, xp=None):
+        """The transitions' own, then the lock rule on a contact's event."""
+        new = self._inner.apply_event(i, t, y, disc, p) if xp is None else \
+            self._inner.apply_event(i, t, y, disc, p, xp)
+        k, w = self._model.events[i]
+        if k >= self._model.K or not may_lock(self._model, k, p):
+            return new
+        was, now = disc[k], new[k]
+        step, first = closing_step(w, was, now), locks_at_max(self._model, k, w, was, now, p)
+        if step is None and not first:
+            return new
+        hold = hold_force(self._model, y, self._model.to_python(new), p, [k], k)
+        if first and 0.0 < hold < float(now["fmax"]):
+            self._stop(k, t, "its neighbours press it shut at its max deformation, where its "
+                       f"rebound (e = {float(p['contacts'][k]['e']):.3g}) is below the "
+                       "integrators' resolution: it closes again at once, without end")
+        if step is None:
+            return new
+        self._counts[k], watch = recount(step, hold > 0.0, self._counts[k], now["mode"])
+        if watch:
+            self._stop(k, t, f"pressed shut by its neighbours, it has closed again "
+                       f"{CHATTER_CLOSINGS} times (it rings on its unloading line, e = "
+                       f"{float(p['contacts'][k]['e']):.3g})")
+        return new
+
+    @staticmethod
+    def _stop(k, t, why):
+        raise SimulationError(
+            f"contact {k} chatters at t = {t:.6g} s: {why}. The plain IF-D law cannot be "
+            f"followed through this; method 'exact-chain' stops where a pair would lock. Use "
+            f"method 'scipy', which locks the pair (it moves as one body while pressed; see "
+            f"'Locked pairs' in the physics docs)")

@@ -114,10 +114,10 @@ class HybridModel:
     def features(self) -> frozenset[str]:
         """Everything this scene uses that a backend must solve (its contract,
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
-        ``unloading:restitution``, ``law:kelvin``, ...), each effect's ``feature``
-        (``effect:brake``, ``effect:failure``, ...), and ``gap:open`` / ``gap:overlap`` for
-        initial gaps above / below zero."""
-        out = set()
+        ...), each effect's ``feature`` (``effect:brake``, ...), ``gap:open`` for initial gaps,
+        and ``contact:lock`` where a pair may lock (:func:`lsc.locking.lock_features`)."""
+        from .locking import lock_features   # (lsc.locking builds on this module)
+        out = set(lock_features(self))
         for law in self.laws:
             out |= law.features()
         out |= {part.feature for part in (*self.brakes, *self.failures)}

@@ -331,7 +331,7 @@ BACKEND = Backend(
     name="scipy", module=__name__,
     options=("rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step",
              "max_steps"),
-    vehicles=(2, None), solves=FEATURES,
+    vehicles=(2, None), solves=FEATURES | {locking.FEATURE},
     summary="event-driven SciPy solve_ivp (DOP853 by default)")
 
 
@@ -473,7 +473,7 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": totals["nfev"],
              "segments": len(segments), "wall_time": wall}
-    locked = sorted({e.index for e in events if "lock" in e.kind.split("+")})
+    locked = [(e.index, e.time) for e in events if "lock" in e.kind.split("+")]
     if locked:   # the chain left the plain IF-D law: say so (lsc.locking)
         stats["warnings"] = [locking.warning(locked)]
     return build_result(model, segments, events, y, disc, method=f"scipy-{integrator}",
