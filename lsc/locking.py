@@ -48,9 +48,8 @@ closings are more than a genuine rebound sequence of such a contact has (each re
 is ``e`` times the last: ``0.05^8 = 4e-11`` of the first, below the integrators' resolution),
 and few enough that a chattering chain locks within a few dozen events.
 
-A backend that cannot lock (exact-chain: :class:`ChatterGuard`) stops with a
-:class:`~lsc.errors.SimulationError` at the moment a lock fires or is armed, naming the contact,
-the time and the remedy; diffrax refuses a scene with the feature (its declaration lacks it).
+Exact-chain (:class:`ChatterGuard`) stops with a :class:`~lsc.errors.SimulationError` where a
+lock fires or is armed; diffrax refuses a scene with the feature.
 """
 
 from __future__ import annotations
@@ -66,13 +65,11 @@ __all__ = ["LockPart", "LockingModel", "ChatterGuard", "CHATTER_CLOSINGS", "WATC
            "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock", "warning",
            "clusters", "cluster_forces", "hold_force"]
 
-#: A contact that has closed again this many times while pressed (see the module) locks at its
-#: next turning point on its line where pressed.
+#: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
 
-#: Only a contact unloading by a restitution below this can lock: from 0.05 up, a chain follows
-#: the IF-D law event by event (a pressed pair rings on its line at most ~20 times per period of
-#: its contact, which the integrators follow).
+#: Only a contact unloading by a restitution below this can lock (from 0.05 up, a pressed pair
+#: rings on its line at most ~20 times per period of its contact: the integrators follow it).
 WATCH_RESTITUTION = 0.05
 
 #: A contact with a restitution below this locks at its max deformation where pressed (rule 1):
@@ -150,8 +147,9 @@ class LockPart:
 
     Discrete state: ``mode`` (1 while locked), ``count`` (closings while pressed,
     :func:`recount`), ``watch`` (1: the ``settle`` event is armed, the lock fires at the next
-    turning point on the line; 2: at the next max deformation), ``kind`` (0: locked at a max deformation, released at zero
-    force by the law's own transition; 1: locked on the line, released onto it), ``ftop``
+    turning point on the line; 2: at the next max deformation), ``kind`` (0: locked at a max
+    deformation, released at zero force by the law's own transition; 1: locked on the line,
+    released onto it), ``ftop``
     [force] and ``dlock`` [length], and the law's state before the lock under ``law_*`` keys.
 
     Events (each crossing zero downward): ``unlock_zero`` (``F_k``), ``unlock_line``
@@ -343,9 +341,7 @@ class LockingModel(HybridModel):
         j, w = self.events[i]
         off = self._lock_offset
         if j < self.K and may_lock(self, j, p):
-            # (the locks this event released first: whether the pair is pressed is decided
-            # with the neighbours' forces after the event)
-            new = self._law_event(j, w, y, before[j], self._settle_locks(y, new, p), p)
+            new = self._law_event(j, w, y, before[j], new, p)
         elif j >= off:
             k = j - off
             if w == 2:   # settle: the turning point on the line the watch waited for

@@ -37,6 +37,7 @@ import lsc
 import lsc.locking
 from hard.common import chain, check_result, closing_scale, momentum_error
 from hard.modal_chain import ModalChain
+from lsc.model import HybridModel
 from hard.test_chains import chains as hard_chains
 
 #: Fewer events than this (the brief's "a few events": the event limit was 10000).
@@ -203,7 +204,7 @@ def test_a_chain_the_plain_law_finishes_is_the_plain_law_bit_for_bit():
     m, v, k, e, gaps = PLAIN_CHAIN
     scene = chain(m, v, [{"loading": {"stiffness": ki}, "unloading": {"restitution": ei},
                           "gap": gi} for ki, ei, gi in zip(k, e, gaps)])
-    assert lsc.locking.FEATURE in lsc.HybridModel(lsc.Scene.load(scene)).features()
+    assert lsc.locking.FEATURE in HybridModel(lsc.Scene.load(scene)).features()
     r = lsc.solve(scene, method="scipy")
     with pytest.MonkeyPatch.context() as mp:
         _without_locks(mp)
@@ -247,8 +248,8 @@ def test_the_lock_feature_marks_exactly_the_chains_whose_pairs_may_lock():
         scene = chain([30.0] * n, [10.0] + [0.0] * (n - 1), [
             {"loading": {"stiffness": 2e4}, "unloading": {"restitution": e}}] * (n - 1))
         if brake:
-            scene["vehicles"][1]["brake"] = {"friction": 0.5}
-        return lsc.HybridModel(lsc.Scene.load(scene)).features()
+            scene["vehicles"][1]["brake"] = {"mu": 0.5}
+        return HybridModel(lsc.Scene.load(scene)).features()
 
     assert lsc.locking.FEATURE in features(3, 0.0)
     assert lsc.locking.FEATURE in features(4, 0.049)
