@@ -27,18 +27,18 @@ more IF-D contacts with no brake and no failure force, can lock (the model featu
 :data:`FEATURE`, :func:`lock_features`), and it locks (:class:`LockPart`, driven by
 :class:`LockingModel`):
 
-- at its max deformation where the law separates at once (``e = 0``), or rebounds by less
+- (rule 1) at its max deformation where the law separates at once (``e = 0``), or rebounds by less
   than the integrators resolve (``e <`` :data:`LOCK_RESTITUTION`), and the neighbours press
   the pair (``0 < F_k < F_max``): the plain law then closes it again at once, at its max
   deformation, without end (the lock is that chatter's limit; it releases at zero force into
   the law's own rebound, so a press that ends at once loses nothing but the ``e² D_max``
   ringing the integrators do not resolve);
-- at the next turning point on its line (``dD/dt`` through zero downward, or its max
+- (rule 2) at the next turning point on its line (``dD/dt`` through zero downward, or its max
   deformation after reloading past ``D_max``), where pressed (``0 < F_k < F_top``), after it
   has closed again :data:`CHATTER_CLOSINGS` times while pressed (at its permanent set, or
   reloading past ``D_max``; ``F_k > 0`` at the closing). A separation where the neighbours do
-  not press the pair (``F_k <= 0``: it leaves) starts the count again. A chain whose contacts
-  close again fewer times is solved by the plain law, bit for bit.
+  not press the pair (``F_k <= 0``: it leaves) starts the count again. A chain that rule 1
+  does not lock and whose contacts close again fewer times is the plain law's, bit for bit.
 
 Why :data:`CHATTER_CLOSINGS` = 8: a pressed pair with ``e < 0.05`` that comes back to its
 permanent set or to ``D_max`` is not bouncing apart but ringing on its line, about ``1 / e``
