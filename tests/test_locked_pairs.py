@@ -84,8 +84,10 @@ CHATTERING_CHAINS = json.loads(r'''[{"units": "US", "vehicles": [{"mass": 1.0, "
 1.0}]}]''')
 
 
-@pytest.mark.parametrize("integrator", ["DOP853", "RK45"])
-@pytest.mark.parametrize("index", range(len(CHATTERING_CHAINS)))
+#: (chain 2, five cars locking 32 times, the slowest, on DOP853 only: seconds in the default run)
+@pytest.mark.parametrize("index, integrator", [
+    (i, integrator) for i in range(len(CHATTERING_CHAINS)) for integrator in ("DOP853", "RK45")
+    if (i, integrator) != (2, "RK45")])
 def test_chattering_chains_finish_with_few_events(index, integrator):
     scene = CHATTERING_CHAINS[index]
     r = lsc.solve(scene, method="scipy", integrator=integrator, max_events=FEW_EVENTS)
