@@ -37,6 +37,8 @@ from scipy.optimize import brentq
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
+from .. import locking
+from ..locking import locking_model
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
@@ -329,7 +331,7 @@ BACKEND = Backend(
     name="scipy", module=__name__,
     options=("rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step",
              "max_steps"),
-    vehicles=(2, None), solves=FEATURES,
+    vehicles=(2, None), solves=FEATURES | {locking.FEATURE},
     summary="event-driven SciPy solve_ivp (DOP853 by default)")
 
 
@@ -347,6 +349,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         raise SceneError("solver.rtol", f"SciPy's integrators accept rtol >= 100 machine epsilons "
                          f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
                          "'closed-form' where they apply")
+    # a chain's contacts pushed shut lock instead of chattering (lsc.locking)
+    model = locking_model(model)
     p = model.params
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)
@@ -469,6 +473,9 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": totals["nfev"],
              "segments": len(segments), "wall_time": wall}
+    locked = [(e.index, e.time) for e in events if "lock" in e.kind.split("+")]
+    if locked:   # the chain left the plain IF-D law: say so (lsc.locking)
+        stats["warnings"] = [locking.warning(locked)]
     return build_result(model, segments, events, y, disc, method=f"scipy-{integrator}",
                         tolerances={"rtol": rtol, "atol": atol}, stats=stats,
                         n_samples=n_samples, y_post=totals["y_post"])

@@ -23,7 +23,7 @@ BACKEND = Backend(
     name="exact-chain", module="lsc.solvers.exact_chain",
     options=("t_end", "n_samples", "max_events"), exact=True, cost=2.0, vehicles=(3, None),
     solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
-                      "unloading:stiffness", "gap:open"}),
+                      "unloading:stiffness", "gap:open", "contact:lock"}),
     batch=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
                      "unloading:stiffness", "gap:open"}),
     batch_options=("max_events",),

@@ -61,10 +61,13 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
+    from ...locking import ChatterGuard, lock_features
+
     fast = _ScalarTransitions(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
-    return fast
+    # (a pair that would lock stops the solve: this backend follows the plain law)
+    return ChatterGuard(fast, model) if lock_features(model) else fast
 
 
 class _Chain:
