@@ -48,22 +48,20 @@ closings are more than a genuine rebound sequence of such a contact has (each re
 is ``e`` times the last: ``0.05^8 = 4e-11`` of the first, below the integrators' resolution),
 and few enough that a chattering chain locks within a few dozen events.
 
-Exact-chain (:class:`ChatterGuard`) stops with a :class:`~lsc.errors.SimulationError` where a
-lock fires or is armed; diffrax refuses a scene with the feature.
+Exact-chain locks by the same rules on its exact motion (:mod:`lsc.solvers.exact_chain._locks`:
+the reduced system of the clusters in closed form); diffrax refuses a scene with the feature.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .errors import SimulationError
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .model import HybridModel
 
-__all__ = ["LockPart", "LockingModel", "ChatterGuard", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
-           "LOCK_RESTITUTION",
-           "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock", "warning",
-           "clusters", "cluster_forces", "hold_force"]
+__all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
+           "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
+           "warning", "lock_warnings", "clusters", "cluster_forces", "hold_force"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
@@ -438,8 +436,15 @@ def warning(locks) -> str:
                       for k, ts in sorted(times.items()))
     return (f"a pressed pair locked ({which}): the plain IF-D law chatters there (it closes "
             f"again and again); the pair moved as one body while pressed, a model of that "
-            f"chatter's limit (see 'Locked pairs' in the physics docs); method 'exact-chain' "
-            f"stops there instead, and 'diffrax' refuses such chains")
+            f"chatter's limit (see 'Locked pairs' in the physics docs; methods 'scipy' and "
+            f"'exact-chain' lock by the same rules, 'diffrax' refuses such chains)")
+
+
+def lock_warnings(events) -> dict:
+    """``{"warnings": [warning]}`` where a pair locked in ``events`` (a run's
+    :class:`~lsc.result.Event` list), else ``{}``: a Result's stats."""
+    locked = [(e.index, e.time) for e in events if "lock" in e.kind.split("+")]
+    return {"warnings": [warning(locked)]} if locked else {}
 
 
 def locking_model(model):
@@ -450,51 +455,3 @@ def locking_model(model):
     if getattr(model, "_locking_model", None) is None:
         model._locking_model = LockingModel(model.scene)
     return model._locking_model
-
-
-class ChatterGuard:
-    """The transitions of a backend that solves the plain law (exact-chain), watching for the
-    lock rule: a :class:`~lsc.errors.SimulationError` at the moment a lock would fire (an
-    instant separation at a max deformation while pressed) or is armed (the
-    :data:`CHATTER_CLOSINGS`-th closing while pressed), naming the contact, the time and the
-    remedy. ``transitions``: what the backend's segment loop drives (it delegates to them)."""
-
-    def __init__(self, transitions, model):
-        self._inner, self._model = transitions, model
-        self._counts = [0.0] * model.K
-
-    def __getattr__(self, name):
-        return getattr(self._inner, name)
-
-    def apply_event(self, i, t, y, disc, p, xp=None):
-        """The transitions' own, then the lock rule on a contact's event."""
-        new = self._inner.apply_event(i, t, y, disc, p) if xp is None else \
-            self._inner.apply_event(i, t, y, disc, p, xp)
-        k, w = self._model.events[i]
-        if k >= self._model.K or not may_lock(self._model, k, p):
-            return new
-        was, now = disc[k], new[k]
-        step, first = closing_step(w, was, now), locks_at_max(self._model, k, w, was, now, p)
-        if step is None and not first:
-            return new
-        hold = hold_force(self._model, y, self._model.to_python(new), p, [k], k)
-        if first and 0.0 < hold < float(now["fmax"]):
-            self._stop(k, t, "its neighbours press it shut at its max deformation, where its "
-                       f"rebound (e = {float(p['contacts'][k]['e']):.3g}) is below the "
-                       "integrators' resolution: it closes again at once, without end")
-        if step is None:
-            return new
-        self._counts[k], watch = recount(step, hold > 0.0, self._counts[k], now["mode"])
-        if watch:
-            self._stop(k, t, f"pressed shut by its neighbours, it has closed again "
-                       f"{CHATTER_CLOSINGS} times (it rings on its unloading line, e = "
-                       f"{float(p['contacts'][k]['e']):.3g})")
-        return new
-
-    @staticmethod
-    def _stop(k, t, why):
-        raise SimulationError(
-            f"contact {k} chatters at t = {t:.6g} s: {why}. The plain IF-D law cannot be "
-            f"followed through this; method 'exact-chain' stops where a pair would lock. Use "
-            f"method 'scipy', which locks the pair (it moves as one body while pressed; see "
-            f"'Locked pairs' in the physics docs)")

@@ -472,10 +472,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                                                      max_events=max_events)
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": totals["nfev"],
-             "segments": len(segments), "wall_time": wall}
-    locked = [(e.index, e.time) for e in events if "lock" in e.kind.split("+")]
-    if locked:   # the chain left the plain IF-D law: say so (lsc.locking)
-        stats["warnings"] = [locking.warning(locked)]
+             "segments": len(segments), "wall_time": wall,
+             **locking.lock_warnings(events)}   # (a lock left the plain IF-D law: say so)
     return build_result(model, segments, events, y, disc, method=f"scipy-{integrator}",
                         tolerances={"rtol": rtol, "atol": atol}, stats=stats,
                         n_samples=n_samples, y_post=totals["y_post"])

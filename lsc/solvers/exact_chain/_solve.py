@@ -19,6 +19,9 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
+from ...locking import lock_warnings
+from . import _locks
+from ._locks import LockTransitions
 from ._modes import Motion, Series, Shape, deformation_map
 from ._roots import PER_RADIAN, Stack, earliest, extrema
 
@@ -43,11 +46,14 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
 
     BACKEND.check(model)
     chain = _Chain(model)
+    transitions = chain.parts = _transitions(model)
     start = time.perf_counter()
-    segments, events, y, disc, totals = run_segments(_transitions(model), chain.advance,
+    segments, events, y, disc, totals = run_segments(transitions, chain.advance,
                                                      t_end=t_end, max_events=max_events)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
-             "wall_time": time.perf_counter() - start}
+             "wall_time": time.perf_counter() - start, **lock_warnings(events)}
+    if isinstance(transitions, LockTransitions):   # (the rows with the locked forces)
+        model, chain.ends = transitions._locking, []
     # the peaks between the events, located exactly by the chain's own search
     return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
                         stats=stats, n_samples=n_samples, y_post=totals["y_post"],
@@ -61,13 +67,13 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    from ...locking import ChatterGuard, lock_features
+    from ...locking import lock_features, locking_model
 
     fast = _ScalarTransitions(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
-    # (a pair that would lock stops the solve: this backend follows the plain law)
-    return ChatterGuard(fast, model) if lock_features(model) else fast
+    # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions)
+    return LockTransitions(fast, locking_model(model)) if lock_features(model) else fast
 
 
 class _Chain:
@@ -86,6 +92,7 @@ class _Chain:
         self.spans = []   # (t0, t1, peak force (K,), peak acceleration (N,)) of each segment
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
         self.ends = []    # the state at the start and at the end of each segment
+        self.parts = model   # whose events the segments search (a LockTransitions: with locks)
 
     def rows(self, segments) -> dict | None:
         """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
@@ -107,6 +114,9 @@ class _Chain:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
         y0 = np.asarray(y0, float)
+        lock = _locks.locked(self.model, disc)
+        if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
+            y0 = _locks.project(self, y0, lock)
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
         D0, W0 = self.C @ x0 - self.gap, self.C @ v0
         contacts = disc[: self.K]
@@ -114,10 +124,13 @@ class _Chain:
         force = np.array([float(st["fa"]) + float(st["s"]) * (D0[k] - float(st["da"]))
                           for k, st in enumerate(contacts)])
         key = tuple(slope.tolist())
-        if key not in self.shapes:
-            self.shapes[key] = Shape(self.m, slope, self.incidence)
-        motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
-        funcs = self._event_functions(motion, disc, D0, W0, x0, v0)
+        if lock:
+            motion = _locks.motion(self, x0, v0, slope, force, lock)
+        else:
+            if key not in self.shapes:
+                self.shapes[key] = Shape(self.m, slope, self.incidence)
+            motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
+        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if event is None and tau is not None:
             raise SimulationError(
@@ -155,15 +168,18 @@ class _Chain:
         return vals[: self.K].max(axis=1), acc[np.arange(self.N), np.argmax(np.abs(acc), axis=1)]
 
     # ------------------------------------------------------------------ events
-    def _event_functions(self, motion, disc, D0, W0, x0, v0):
+    def _event_functions(self, motion, disc, D0, W0, x0, v0, force):
         """``[(event index, Series, tolerance at the start)]`` for every armed event."""
         tol_d = START_TOL * self.length + 16 * _EPS * float(np.max(np.abs(x0)))
         tol_w = START_TOL * self.model.v_scale + 16 * _EPS * float(np.max(np.abs(v0)))
         out = []
-        for i in self.model.active_events(disc):
-            k, which = self.model.events[i]
+        for i in self.parts.active_events(disc):
+            k, which = self.parts.events[i]
             st = disc[k]
-            if which == 0:     # the piece's lower end reached going down: (D - da) + wl
+            if k >= self.K:    # a lock's (._locks): its force's releases, a watched turn
+                out.append((i, *_locks.event_function(self, motion, disc, k - self.K, which,
+                                                      force, W0, tol_w, START_TOL)))
+            elif which == 0:     # the piece's lower end reached going down: (D - da) + wl
                 g, tol = motion.deformation(k, (D0[k] - st["da"]) + st["wl"]), tol_d
             elif which == 1:   # its upper end reached going up: hi - D
                 g, tol = motion.deformation(k, st["hi"] - D0[k], -1.0), tol_d
