@@ -132,6 +132,9 @@ class _Chain:
             motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force)
         tau, event = self._earliest(motion, funcs, horizon - t0)
+        if event is None and tau is None and (horizon - t0) * PER_RADIAN * \
+                motion.modes.fastest() > MAX_SAMPLES and funcs:
+            tau = MAX_SAMPLES / (PER_RADIAN * motion.modes.fastest())   # (no event found)
         if event is None and tau is not None:
             raise SimulationError(
                 f"exact-chain: {MAX_SAMPLES} samples in one segment by t = {t0 + tau:.6g} s and "
