@@ -21,8 +21,7 @@ limit (issue 13, item 5).
 - The locked force: a cluster's force from its neighbours' forces and the masses
   (:func:`lsc.locking.cluster_forces`) against Newton's law written out by hand.
 - The contract: ``contact:lock`` is a feature of exactly the scenes whose pairs may lock; SciPy
-  solves it, exact-chain stops where SciPy locks (a SimulationError naming contact, time and
-  remedy), diffrax refuses it (a SceneError naming the feature and the remedy).
+  and exact-chain solve it (tests/test_exact_chain_locks.py), diffrax refuses it (a SceneError naming the feature and the remedy).
 """
 
 from __future__ import annotations
@@ -260,22 +259,9 @@ def test_the_lock_feature_marks_exactly_the_chains_whose_pairs_may_lock():
     assert lsc.locking.FEATURE not in features(3, 0.0, brake=True)
 
 
-def test_exact_chain_stops_where_scipy_locks_and_diffrax_refuses():
-    instant, counted = CHATTERING_CHAINS[0], CHATTERING_CHAINS[3]
-    # e = 0: SciPy locks at the max deformation, exact-chain stops at that instant
-    (k, t), = _locks(lsc.solve(instant, method="scipy"))[:1]
-    assert lsc.solvers.pick(lsc.Scene.load(instant), "auto") == "exact-chain"
-    with pytest.raises(lsc.SimulationError, match=rf"contact {k} chatters at t = {t:.6g} s: .*"
-                       r"method 'exact-chain' stops where a pair would lock\. Use method "
-                       r"'scipy', which locks the pair"):
-        lsc.solve(instant, method="auto")
-    # counted: exact-chain stops at the 8th closing, SciPy locks at the turning point after it
-    (k, t), = _locks(lsc.solve(counted, method="scipy"))[:1]
-    with pytest.raises(lsc.SimulationError, match=rf"contact {k} chatters at t = .* closed "
-                       rf"again {lsc.locking.CHATTER_CLOSINGS} times") as err:
-        lsc.solve(counted, method="exact-chain")
-    t_exact = float(str(err.value).split("t = ")[1].split(" s")[0])
-    assert t - 1e-3 < t_exact <= t
+def test_diffrax_refuses_locked_pairs():
+    """(exact-chain locks as SciPy does: tests/test_exact_chain_locks.py)"""
+    instant = CHATTERING_CHAINS[0]
     with pytest.raises(lsc.SceneError, match=r"method 'diffrax' does not apply to this scene: "
                        r"it does not solve locked pairs .*; use method 'scipy'"):
         lsc.solve(instant, method="diffrax")
