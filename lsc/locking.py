@@ -61,7 +61,7 @@ from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
            "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
-           "warning", "lock_warnings", "clusters", "cluster_forces", "hold_force"]
+           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces", "hold_force"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
@@ -99,6 +99,20 @@ def locks_at_max(model, k: int, w: int, was: dict, now: dict, p) -> bool:
     pressed pair: an instant separation, or a restitution below :data:`LOCK_RESTITUTION`."""
     return w == 2 and int(was["mode"]) == MODE_LOADING and (
         int(now["mode"]) == MODE_OPEN or may_lock(model, k, p, LOCK_RESTITUTION))
+
+
+def lock_members(model, p) -> np.ndarray:
+    """(n,) bool: the members of a batch (``p``: parameters with a leading member axis of
+    ``n``) whose pairs may lock (:func:`may_lock` on each member's restitutions): a batch path
+    that follows the plain law hands them to the single solve, which locks."""
+    n = int(np.shape(p["m"])[0])
+    out = np.zeros(n, bool)
+    if can_lock(model):
+        for k, law in enumerate(model.laws):
+            if law.unload_kind == "restitution":
+                out |= np.broadcast_to(np.asarray(p["contacts"][k]["e"], float), (n,)) \
+                    < WATCH_RESTITUTION
+    return out
 
 
 def lock_features(model) -> frozenset[str]:

@@ -149,3 +149,21 @@ def test_near_plastic_chains_lock_in_exact_chain_as_in_scipy(scene):
         return
     event("same events" + (" (locked)" if _locks(exact) else ""))
     check_agrees(ref, exact)
+
+
+def test_the_batch_hands_members_that_may_lock_to_the_single_solve():
+    """A sweep of the pushed pair's restitution from a nominal e = 0.1 (no pair may lock): the
+    members below 0.05 are solved alone, which locks (e = 0.03: the plain law, in the batch,
+    gave other numbers than the single solve before)."""
+    from lsc.model import HybridModel
+    from lsc.solvers.exact_chain import solve_batch
+
+    model = HybridModel(lsc.Scene.load(_pushed(2e5, 0.1)))
+    e = np.array([0.1, 0.03, 0.0])
+    out = solve_batch(model, {"contacts.1.unloading.restitution": e})
+    assert list(out["status"]) == ["ok"] * 3
+    for j in (1, 2):
+        r = lsc.solve(_pushed(2e5, float(e[j])), method="exact-chain")
+        assert _locks(r)
+        for name in ("delta_v", "max_deformation", "peak_force", "energy_absorbed"):
+            assert np.array_equal(out["metrics"][name][j], getattr(r, name)), name
