@@ -242,7 +242,8 @@ def cluster_forces(F, m, groups, K: int):
 class LockingModel(HybridModel):
     """A chain's :class:`~lsc.model.HybridModel` with a lock per contact (after the laws and
     effects, in :attr:`parts` and the discrete state). NumPy only: SciPy's backend builds it
-    (:func:`locking_model`); the other backends solve the plain model, which has no locks."""
+    (:func:`locking_model`); exact-chain drives its transitions on its own exact motion
+    (:mod:`lsc.solvers.exact_chain._locks`); diffrax refuses chains whose pairs may lock."""
 
     def _more_parts(self) -> list:
         """One :class:`LockPart` per contact."""

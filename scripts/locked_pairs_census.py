@@ -7,6 +7,12 @@ at most ``--events`` events, and counts: chattered before (stopped at a limit) a
 still stop; finished before and give the same metrics (to 1e-10) or different ones.
 
     PYTHONPATH=$PWD python scripts/locked_pairs_census.py --n 80 --seed 3 --integrator DOP853
+
+With ``--exact``: each chain by exact-chain (which locks by the same rules) and by SciPy with
+locks at ``--rtol``: how many each finishes, whether they give the same events and metrics (to
+1e-8), why exact-chain stops, and the CPU time per chain of each (``auto`` picks exact-chain).
+
+    PYTHONPATH=$PWD python scripts/locked_pairs_census.py --n 40 --seed 3 --exact
 """
 
 from __future__ import annotations
@@ -61,16 +67,20 @@ def draw(n, seed, ratio):
     return out
 
 
-def solve(scene, locks, integrator, events):
+def solve(scene, locks, integrator, events, method="scipy", **kw):
     """``(result or None, error or None, CPU seconds)``."""
     import lsc
     import lsc.solvers.scipy_ode as scipy_ode
     from lsc.locking import locking_model
 
     scipy_ode.locking_model = locking_model if locks else (lambda model: model)
+    if method != "scipy":
+        kw = {}
+    else:
+        kw = dict(kw, integrator=integrator)
     t0 = time.process_time()
     try:
-        r = lsc.solve(scene, method="scipy", integrator=integrator, max_events=events)
+        r = lsc.solve(scene, method=method, max_events=events, **kw)
         return r, None, time.process_time() - t0
     except lsc.SimulationError as err:
         return None, str(err), time.process_time() - t0
@@ -83,7 +93,12 @@ def main():
     ap.add_argument("--ratio", type=float, default=1000.0)
     ap.add_argument("--events", type=int, default=200)
     ap.add_argument("--integrator", default="DOP853")
+    ap.add_argument("--exact", action="store_true",
+                    help="exact-chain against SciPy, both with locks")
+    ap.add_argument("--rtol", type=float, default=1e-10)
     args = ap.parse_args()
+    if args.exact:
+        return exact_census(args)
     counts, why = Counter(), Counter()
     for i, scene in enumerate(draw(args.n, args.seed, args.ratio)):
         before, _, _ = solve(scene, False, args.integrator, args.events)
@@ -103,6 +118,36 @@ def main():
               f"({cpu:.2f} s)", flush=True)
     print(dict(counts))
     print("why the rest stop:", dict(why))
+
+
+def exact_census(args):
+    """Exact-chain against SciPy (both locking) on the drawn chains: counts and CPU times."""
+    counts, why, cpu = Counter(), Counter(), {"exact-chain": [], "scipy": []}
+    for i, scene in enumerate(draw(args.n, args.seed, args.ratio)):
+        exact, err, t_exact = solve(scene, True, args.integrator, args.events, "exact-chain")
+        ref, err_ref, t_ref = solve(scene, True, args.integrator, args.events, rtol=args.rtol)
+        cpu["exact-chain"].append(t_exact)
+        cpu["scipy"].append(t_ref)
+        if exact is None:
+            why[err.split(":")[0] if "impact" in err else err[:60]] += 1
+        key = ("exact-chain finishes" if exact is not None else "exact-chain stops") + (
+            ", scipy finishes" if ref is not None else ", scipy stops")
+        if exact is not None and ref is not None:
+            same = [(e.kind, e.index) for e in exact.events] == [(e.kind, e.index)
+                                                                for e in ref.events]
+            off = max(float(np.max(np.abs(np.asarray(getattr(exact, k), float)
+                                          - np.asarray(getattr(ref, k), float))))
+                      / max(float(np.max(np.abs(getattr(ref, k)))), 1e-300) for k in METRICS)
+            key += (", same events" if same else ", other events") + (
+                ", agree to 1e-8" if off <= 1e-8 else f", differ")
+        counts[key] += 1
+        locked = exact is not None and bool(exact.warnings)
+        print(i, key, "(locked)" if locked else "", err or "",
+              f"exact {t_exact:.3f} s, scipy {t_ref:.3f} s", flush=True)
+    print(dict(counts))
+    print("why exact-chain stops:", dict(why))
+    for name, ts in cpu.items():
+        print(f"{name}: CPU per chain: median {np.median(ts):.3f} s, mean {np.mean(ts):.3f} s")
 
 
 if __name__ == "__main__":
