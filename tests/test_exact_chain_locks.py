@@ -44,12 +44,34 @@ def _pushed(k_front: float, e_front: float = 0.0) -> dict:
         {"loading": {"stiffness": k_front}, "unloading": {"restitution": e_front}, "gap": 0.0}])
 
 
+#: Four cars from scripts/locked_pairs_census.py (--seed 3, chain 12): contacts 1 and 2 locked,
+#: the cluster of cars 1-3 pushed by contact 0 alone, so lock 2's force and contact 0's reach
+#: zero at the same instant (to rounding). Exact-chain released lock 2 first (a separation and
+#: a closing again of contact 2) where SciPy separates contact 0 first, which releases the
+#: cluster: ΔV 2e-7 of the closing speed apart; now the law event goes first.
+TIED_RELEASE = {"units": "US", "vehicles": [
+    {"mass": 3.9810717055349722, "speed": 6.817283642998686},
+    {"mass": 1.0, "speed": 4.981071705534973}, {"mass": 1.0, "speed": 1.0},
+    {"mass": 30.50980262167514, "speed": 0.0}], "contacts": [
+    {"loading": {"table": [[0.0, 0.0], [0.0014031291998229344, 0.14031291998229345],
+                           [0.0028062583996458688, 0.14031291998229345],
+                           [1000.0, 999997.3340545202]]},
+     "unloading": {"restitution": 0.010009904201689927}, "gap": 0.0},
+    {"loading": {"table": [[0.0, 0.0], [0.001000000000000001, 0.30436244870317375],
+                           [0.002000000000000002, 0.30436244870317375],
+                           [1000.0, 3043618.704145209]]},
+     "unloading": {"restitution": 1e-06}, "gap": 0.0},
+    {"loading": {"stiffness": 16597.32528862461},
+     "unloading": {"restitution": 6.225024846304976e-09}, "gap": 0.0}]}
+
+
 def _events(r):
     return [(e.kind, e.index) for e in r.events]
 
 
-@pytest.mark.parametrize("scene", [CHATTERING_CHAINS[0], CHATTERING_CHAINS[3], _pushed(2e6)],
-                         ids=["e0-tables", "counted-4cars", "pushed-pair"])
+@pytest.mark.parametrize("scene", [CHATTERING_CHAINS[0], CHATTERING_CHAINS[3], _pushed(2e6),
+                                   TIED_RELEASE],
+                         ids=["e0-tables", "counted-4cars", "pushed-pair", "tied-release"])
 def test_exact_chain_locks_where_scipy_locks(scene):
     exact = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
     ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)

@@ -27,7 +27,8 @@ import numpy as np
 from ...locking import cluster_forces, clusters
 from ._modes import Motion, Series, Shape, deformation_map
 
-__all__ = ["LockTransitions", "LockedShape", "locked", "project", "motion", "event_function"]
+__all__ = ["LockTransitions", "LockedShape", "locked", "project", "motion", "event_function",
+           "first_of_ties"]
 
 
 class LockTransitions:
@@ -151,3 +152,19 @@ def event_function(chain, motion, disc, k: int, which: int, force, W0, tol_w, st
         return Series(c, row * motion.a, row * motion.b, motion.modes), tol
     top = float(disc[chain.K + k]["ftop"])
     return Series(top - c, -row * motion.a, -row * motion.b, motion.modes), tol
+
+
+def first_of_ties(chain, funcs, tau: float, event: int) -> int:
+    """The event that ends a segment at ``tau`` with locks: ``event``, or where it is a lock's
+    release and a law's event function is on its surface at ``tau`` too (within its start
+    tolerance), that law event (the first in event order). A cluster pushed from one side
+    only is released at the instant its pusher separates: both roots are the same to rounding,
+    and the pusher's separation, which then releases the cluster (as SciPy's transitions do),
+    must come first."""
+    if chain.parts.events[event][0] < chain.K:
+        return event
+    for i, g, tol in funcs:
+        # (one that came down to its surface, not one that stays on it all along)
+        if chain.parts.events[i][0] < chain.K and g.c > tol and g(tau) <= tol:
+            return i
+    return event

@@ -132,6 +132,8 @@ class _Chain:
             motion = Motion(self.m, x0, v0, slope, force, self.incidence, self.shapes[key])
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force)
         tau, event = self._earliest(motion, funcs, horizon - t0)
+        if lock and event is not None:   # (a law event at the same instant goes first)
+            event = _locks.first_of_ties(self, funcs, tau, event)
         if event is None and tau is None and (horizon - t0) * PER_RADIAN * \
                 motion.modes.fastest() > MAX_SAMPLES and funcs:
             tau = MAX_SAMPLES / (PER_RADIAN * motion.modes.fastest())   # (no event found)
