@@ -67,11 +67,13 @@ class LockTransitions:
         return self._locking.to_python(self._locking._relock(i, y, disc, new, p))
 
 
-def locked(model, disc) -> tuple[int, ...]:
-    """The locked contacts in ``disc`` (none for a model without locks)."""
-    if len(disc) <= model.K:
+def locked(parts, disc) -> tuple[int, ...]:
+    """The locked contacts in ``disc`` (none where ``parts``, the transitions the segment loop
+    drives, has no locks)."""
+    if not isinstance(parts, LockTransitions):
         return ()
-    return tuple(k for k in range(model.K) if disc[model.K + k]["mode"])
+    off = parts._off
+    return tuple(k for k in range(parts.K) if disc[off + k]["mode"])
 
 
 class LockedShape:

@@ -114,7 +114,7 @@ class _Chain:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
         y0 = np.asarray(y0, float)
-        lock = _locks.locked(self.model, disc)
+        lock = _locks.locked(self.parts, disc)
         if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
             y0 = _locks.project(self, y0, lock)
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
