@@ -43,7 +43,8 @@ MAX_ANGLE = 0.5
 #: here is a length (and a Kelvin law's ``separate``, ``k D + c Ḋ``, is a force).
 EVENT_UNITS = {"vmax": "velocity", "turn": "velocity", "recompress": "velocity",
                "stop": "velocity", "break_forward": "force", "break_backward": "force",
-               "failure": "force"}
+               "failure": "force", "unlock_zero": "force", "unlock_line": "force",
+               "settle": "velocity"}
 
 
 def _event_unit(part, kind: str) -> str:
@@ -84,7 +85,7 @@ class HybridModel:
         # force alone is an effect watching the contact force.
         self.failures = [FailureEffect(k, c.failure) for k, c in enumerate(scene.contacts)
                          if c.failure is not None and c.failure.post_failure is None]
-        self.parts = [*self.laws, *self.brakes, *self.failures]
+        self.parts = [*self.laws, *self.brakes, *self.failures, *self._more_parts()]
         self.work = [k for k, law in enumerate(self.laws) if law.tracks_work]
         self._work_idx = np.asarray(self.work, dtype=int)
         # incidence (N, K): contact k pushes vehicle k back and vehicle k+1 forward
@@ -106,16 +107,19 @@ class HybridModel:
         v = scene.speeds.tolist()   # (speed_scale(), on Python floats: the same number)
         self.v_scale = max(max(map(abs, v)), max(abs(b - a) for a, b in zip(v, v[1:])), 1e-300)
 
+    def _more_parts(self) -> list:
+        return []   # (parts after the effects: lsc.locking.LockingModel's locks)
+
     def features(self) -> frozenset[str]:
         """Everything this scene uses that a backend must solve (its contract,
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
-        ``unloading:restitution``, ``law:kelvin``, ...), each effect's ``feature``
-        (``effect:brake``, ``effect:failure``, ...), and ``gap:open`` / ``gap:overlap`` for
-        initial gaps above / below zero."""
-        out = set()
+        ...), each effect's ``feature`` (``effect:brake``, ...), ``gap:open`` for initial gaps,
+        and ``contact:lock`` where a pair may lock (:func:`lsc.locking.lock_features`)."""
+        from .locking import lock_features   # (lsc.locking builds on this module)
+        out = set(lock_features(self))
         for law in self.laws:
             out |= law.features()
-        out |= {part.feature for part in self.parts[self.K:]}
+        out |= {part.feature for part in (*self.brakes, *self.failures)}
         if np.any(np.asarray(self.params["gap"], float) > 0):
             out.add("gap:open")
         return frozenset(out)
@@ -270,6 +274,10 @@ class HybridModel:
         """What event ``i`` was, from the discrete state before and after it."""
         j, w = self.events[i]
         return self.parts[j].event_name(w, before[j], after[j])
+
+    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
+        """``[(name, index)]``: other parts event ``i`` changed (:mod:`lsc.locking`)."""
+        return []
 
     def event_index(self, i: int) -> int:
         """The contact (or vehicle, for a brake event) that event ``i`` concerns."""

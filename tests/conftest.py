@@ -38,6 +38,29 @@ def pytest_configure(config):
         os.environ["LSC_HARD"] = "1"
     if hard_mode():
         settings.load_profile("lsc-hard")
+    else:
+        _without_local_constants()
+
+
+def _without_local_constants():
+    """Keep the derandomized cases fixed by the tests alone: Hypothesis (from 6.131) also draws,
+    now and then, literals it collects from the local modules loaded so far (``lsc``'s, the
+    tests'), so a case would change with any number written anywhere in the code, and with the
+    test files that ran before it. The default run draws from Hypothesis's own constants only;
+    hard mode keeps the local ones (they help find new cases). Nothing is changed where this
+    Hypothesis has no such pool (an internal name; checked)."""
+    try:
+        from hypothesis.internal.conjecture import providers
+    except ImportError:
+        return
+    pool = getattr(providers, "_local_constants", None)
+    if pool is None or not hasattr(providers, "_get_local_constants"):
+        return
+    empty = copy.deepcopy(pool)
+    for name in ("integers", "floats", "bytes", "strings"):
+        getattr(empty, name).clear()
+    providers._get_local_constants = lambda: empty
+    providers.CONSTANTS_CACHE.cache.clear()
 
 
 @pytest.fixture

@@ -119,6 +119,8 @@ FEATURES = {
     "effect:failure": "a bumper failure force",
     "effect:post-failure": "a post-failure loading curve",
     "gap:open": "an initial gap between vehicles",
+    "contact:lock": ("locked pairs (a chain's near-plastic contact, e < 0.05, that chatters "
+                     "pressed shut by its neighbours locks: lsc.locking)"),
 }
 
 

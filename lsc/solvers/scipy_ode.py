@@ -37,10 +37,13 @@ from scipy.optimize import brentq
 from ..contact import HysteresisLaw
 from ..effects import BrakeEffect
 from ..errors import SimulationError
+from .. import locking
+from ..locking import locking_model
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
-from .integrable import FEATURES as INTEGRABLE
+from ..effects import integrable_features
+from .integrable import BUILTIN
 from .segments import Step, build_result, run_segments
 
 __all__ = ["BACKEND", "FEATURES", "solve", "INTEGRATORS"]
@@ -320,9 +323,9 @@ def _polish(restep, g, slope, t_old, t_new, tr, yr, iters: int = 3):
     return best[1], best[2]
 
 
-#: Every built-in feature of the model, and those of registered laws and effects that declare
-#: ``integrable``: SciPy integrates any scene of the hybrid ODE (:mod:`.integrable`).
-FEATURES = INTEGRABLE
+#: What SciPy solves: every integrable feature, and locked pairs (:mod:`lsc.locking`); a live
+#: set, so laws and effects registered later are in it.
+FEATURES = integrable_features(BUILTIN | {locking.FEATURE})
 
 #: The SciPy backend's declaration: any number of vehicles, every law and effect.
 BACKEND = Backend(
@@ -347,6 +350,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
         raise SceneError("solver.rtol", f"SciPy's integrators accept rtol >= 100 machine epsilons "
                          f"(2.2e-14), got {rtol:g}; for more digits use method 'exact' or "
                          "'closed-form' where they apply")
+    # a chain's contacts pushed shut lock instead of chattering (lsc.locking)
+    model = locking_model(model)
     p = model.params
     method = getattr(scipy.integrate, integrator)
     max_steps = int(max_steps)
@@ -468,7 +473,8 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                                                      max_events=max_events)
     wall = time.perf_counter() - start
     stats = {"steps": totals["steps"], "rhs_evaluations": totals["nfev"],
-             "segments": len(segments), "wall_time": wall}
+             "segments": len(segments), "wall_time": wall,
+             **locking.lock_warnings(events)}   # (a lock left the plain IF-D law: say so)
     return build_result(model, segments, events, y, disc, method=f"scipy-{integrator}",
                         tolerances={"rtol": rtol, "atol": atol}, stats=stats,
                         n_samples=n_samples, y_post=totals["y_post"])

@@ -91,7 +91,10 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         new = model.to_python(model.apply_event(step.event, t, y, disc, model.params))
         name = model.event_name(step.event, disc, new)
         events.append(Event(t, name, model.event_index(step.event)))
-        if "separation" in name:
+        # (a locked pair released by another part's event: lsc.locking)
+        side = model.side_events(step.event, disc, new)
+        events += [Event(t, kind, k) for kind, k in side]
+        if "separation" in name or any("separation" in kind for kind, _ in side):
             y_post = y
         model.check_status(new, t)
         disc = new

@@ -12,7 +12,10 @@ only: a (near-)plastic contact that a neighbour keeps pushing shut closes, stops
 closes again at an ever higher rate (the vehicles would move together; the IF-D law has no
 sticking mode), which either ends, after hundreds of events whose sequence the smallest
 difference in timing changes (so do the final speeds, by ~e of the closing speed), or reaches the
-event or step limit with a clear SimulationError. See docs/reliability.rst.
+event or step limit with a clear SimulationError. SciPy now locks such a pair once it has
+closed again lsc.locking.CHATTER_CLOSINGS times while pressed (tests/test_locked_pairs.py) and
+most of these chains finish with a few dozen events; the rest still stop at a limit, so the
+tolerance of _solve_or_chatter stays. See docs/reliability.rst.
 """
 
 from __future__ import annotations
@@ -237,13 +240,17 @@ def test_near_plastic_chains_conserve_or_stop_clearly(case):
 
 def _conserve_or_stop_clearly(scene, limits):
     """Every integrator either finishes, conserving momentum and closing the energy balance, or
-    stops at its event or step limit with a SimulationError that says so."""
+    stops at its event or step limit with a SimulationError that says so, or (a chain whose
+    pairs locked, lsc.locking, goes on past where the plain law stopped) at a grazing impact
+    that the clock cannot represent (a 1-slug car between e = 0 contacts touching its
+    neighbours in turn for 1e-9 s at t = 0.27 s, found by the default run)."""
     for _, kw in scipy_runs(**limits):
         try:
             r = lsc.solve(scene, **kw)
         except lsc.SimulationError as err:
             msg = str(err)
-            assert ("event limit" in msg and "chatter" in msg) or "steps in one segment" in msg, msg
+            assert ("event limit" in msg and "chatter" in msg) or "steps in one segment" in msg \
+                or "too coarse to represent the impact" in msg, msg
             continue
         check_result(r)
 

@@ -25,6 +25,7 @@ from ... import metrics as _metrics
 from ... import parameters
 from ...contact import MODE_OPEN
 from ...errors import SceneError
+from ...locking import lock_members
 from ...impacts import TIME_RESOLUTION
 from ...model import OVER_TOL
 from ...result import METRICS
@@ -66,6 +67,7 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
     n = p["m"].shape[0]
     run = _Batch(model, p, min(max_events, HANDOFF_EVENTS))
     metrics, code = run.solve() if n else ({}, np.zeros(0, int))
+    code[lock_members(model, p)] = ALONE   # (pairs that may lock: the single solve locks them)
     shapes = {"scene": (n,), "vehicle": (n, model.N), "contact": (n, model.K)}
     metrics = {name: np.array(metrics[name], float).reshape(shapes[per]) if n
                else np.full(shapes[per], np.nan) for name, (_, per) in METRICS.items()}

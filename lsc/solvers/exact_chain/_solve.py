@@ -19,6 +19,9 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
+from ...locking import lock_warnings
+from . import _locks
+from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
 from ._roots import PER_RADIAN, Stack, earliest
@@ -44,11 +47,14 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
 
     BACKEND.check(model)
     chain = _Chain(model)
+    transitions = chain.parts = _transitions(model)
     start = time.perf_counter()
-    segments, events, y, disc, totals = run_segments(_transitions(model), chain.advance,
+    segments, events, y, disc, totals = run_segments(transitions, chain.advance,
                                                      t_end=t_end, max_events=max_events)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
-             "wall_time": time.perf_counter() - start}
+             "wall_time": time.perf_counter() - start, **lock_warnings(events)}
+    if isinstance(transitions, LockTransitions):   # (the rows with the locked forces)
+        model, chain.ends = transitions._locking, []
     # the peaks between the events, located exactly by the chain's own search, all segments
     # at once
     return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
@@ -63,10 +69,13 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
+    from ...locking import lock_features, locking_model
+
     fast = _ScalarTransitions(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
-    return fast
+    # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions)
+    return LockTransitions(fast, locking_model(model)) if lock_features(model) else fast
 
 
 class _Chain:
@@ -85,6 +94,7 @@ class _Chain:
         self.records = []   # (t0, motion, force at the start, length, loading contacts)
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
         self.ends = []    # the state at the start and at the end of each segment
+        self.parts = model   # whose events the segments search (a LockTransitions: with locks)
 
     def rows(self, segments) -> dict | None:
         """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
@@ -106,6 +116,9 @@ class _Chain:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
         y0 = np.asarray(y0, float)
+        lock = _locks.locked(self.parts, disc)
+        if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
+            y0 = _locks.project(self, y0, lock)
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
         # (the deformations and closing rates as Python floats: the same arithmetic as on
         # NumPy's 0-d values, several times cheaper)
@@ -114,12 +127,20 @@ class _Chain:
         key = tuple(float(st["s"]) for st in contacts)
         force = np.array([float(st["fa"]) + s * (D0[k] - float(st["da"]))
                           for k, (s, st) in enumerate(zip(key, contacts))])
-        shape = self.shapes.get(key)
-        if shape is None:
-            shape = self.shapes[key] = Shape(self.m, np.array(key), self.incidence)
-        motion = Motion(self.m, x0, v0, None, force, self.incidence, shape)
-        funcs = self._event_functions(motion, disc, D0, W0, x0, v0)
+        if lock:
+            motion = _locks.motion(self, x0, v0, np.array(key), force, lock)
+        else:
+            shape = self.shapes.get(key)
+            if shape is None:
+                shape = self.shapes[key] = Shape(self.m, np.array(key), self.incidence)
+            motion = Motion(self.m, x0, v0, None, force, self.incidence, shape)
+        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force)
         tau, event = self._earliest(motion, funcs, horizon - t0)
+        if lock and event is not None:   # (a law event at the same instant goes first)
+            event = _locks.first_of_ties(self, funcs, tau, event)
+        if event is None and tau is None and (horizon - t0) * PER_RADIAN * \
+                motion.modes.fastest() > MAX_SAMPLES and funcs:
+            tau = MAX_SAMPLES / (PER_RADIAN * motion.modes.fastest())   # (no event found)
         if event is None and tau is not None:
             raise SimulationError(
                 f"exact-chain: {MAX_SAMPLES} samples in one segment by t = {t0 + tau:.6g} s and "
@@ -132,7 +153,9 @@ class _Chain:
         end = motion.state(tau)
         # (a contact whose closing rate is an armed event keeps closing all along: its force
         # is monotone, its extremes at the segment's ends, none inside it to search)
-        rising = {self.model.events[i][0] for i, _, _ in funcs if self.model.events[i][1] == 2}
+        # (a lock's closing-rate watch is not a law's: only the laws' contacts, k < K)
+        rising = {k for k, which in (self.parts.events[i] for i, _, _ in funcs)
+                  if which == 2 and k < self.K}
         self.records.append((t0, motion, force, tau, rising))
         self.ends.append((y0, end))
 
@@ -146,11 +169,19 @@ class _Chain:
         force of each contact and the acceleration of largest magnitude of each vehicle,
         signed, at the segment's ends or at an interior extremum, every segment searched at
         once after the loop (:func:`~._peaks.segment_peaks`)."""
-        peaks = segment_peaks([rec[1:] for rec in self.records], self.K)
+        # (segments with locks have fewer modes, those of the reduced chain: each number of
+        # modes searched in its own stack)
+        peaks = [None] * len(self.records)
+        by_size = {}
+        for j, rec in enumerate(self.records):
+            by_size.setdefault(rec[1].modes.kappa.size, []).append(j)
+        for idx in by_size.values():
+            for j, pk in zip(idx, segment_peaks([self.records[j][1:] for j in idx], self.K)):
+                peaks[j] = pk
         return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
 
     # ------------------------------------------------------------------ events
-    def _event_functions(self, motion, disc, D0, W0, x0, v0):
+    def _event_functions(self, motion, disc, D0, W0, x0, v0, force):
         """``[(event index, Series, tolerance at the start)]`` for every armed event."""
         tol_d = START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
@@ -158,10 +189,13 @@ class _Chain:
         tol_w = START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist())) \
             + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
         out = []
-        for i in self.model.active_events(disc):
-            k, which = self.model.events[i]
+        for i in self.parts.active_events(disc):
+            k, which = self.parts.events[i]
             st = disc[k]
-            if which == 0:     # the piece's lower end reached going down: (D - da) + wl
+            if k >= self.K:    # a lock's (._locks): its force's releases, a watched turn
+                out.append((i, *_locks.event_function(self, motion, disc, k - self.K, which,
+                                                      force, W0, tol_w, START_TOL)))
+            elif which == 0:     # the piece's lower end reached going down: (D - da) + wl
                 g, tol = motion.deformation(k, (D0[k] - st["da"]) + st["wl"]), tol_d
             elif which == 1:   # its upper end reached going up: hi - D
                 g, tol = motion.deformation(k, st["hi"] - D0[k], -1.0), tol_d

@@ -1,0 +1,472 @@
+"""Locked pairs: an IF-D contact of a chain held shut by its neighbours moves as one body.
+
+A near-plastic contact at its permanent set that a neighbour keeps pushing closes, stops,
+separates and closes again, each closing a tiny impact (the IF-D law has no sticking mode): the
+integrators chatter to their event limit. While the force that holds such a pair together stays
+inside the law's range, between zero and the force of its unloading/reloading line at its
+deformation, the pair is a rigid link: its deformation ``D_lock`` is held, its vehicles share one
+acceleration, and its force follows from the motion. For a cluster of vehicles ``a..b`` joined by
+locked contacts, pushed from behind by ``F_L`` (contact ``a-1``) and held from the front by ``F_R``
+(contact ``b``), each vehicle accelerates at ``(F_L - F_R) / M`` (``M``: the cluster's mass) and
+the locked contact ``k`` carries
+
+    ``F_k = (M_front F_L + M_rear F_R) / M``
+
+(``M_rear``: the mass of vehicles ``a..k``, ``M_front = M - M_rear``), affine in the state where
+``F_L`` and ``F_R`` are IF-D forces. The lock is released when ``F_k`` falls to zero (the pair is
+pulled apart: separation, or unloading along the line from ``D_lock``) or rises to ``F_top``, the
+line's force at ``D_lock`` (the contact then reloads along its line, or its loading curve). The
+held deformation keeps the line's stored energy, and the locked force does no work (``dD/dt = 0``),
+so the energy balance holds exactly.
+
+A lock is an approximation of the law (a rigid link in place of ringing on a very stiff
+unloading line), acceptable only where the plain law cannot be followed: every chain that the
+plain law finishes without chattering gives exactly the numbers it gives without locks. Only a
+contact that unloads by a restitution below :data:`WATCH_RESTITUTION`, in a chain of three or
+more IF-D contacts with no brake and no failure force, can lock (the model feature
+:data:`FEATURE`, :func:`lock_features`), and it locks (:class:`LockPart`, driven by
+:class:`LockingModel`):
+
+- (rule 1) at its max deformation where the law separates at once (``e = 0``), or rebounds by less
+  than the integrators resolve (``e <`` :data:`LOCK_RESTITUTION`), and the neighbours press
+  the pair (``0 < F_k < F_max``): the plain law then closes it again at once, at its max
+  deformation, without end (the lock is that chatter's limit; it releases at zero force into
+  the law's own rebound, so a press that ends at once loses nothing but the ``e² D_max``
+  ringing the integrators do not resolve);
+- (rule 2) at the next turning point on its line (``dD/dt`` through zero downward, or its max
+  deformation after reloading past ``D_max``), where pressed (``0 < F_k < F_top``), after it
+  has closed again :data:`CHATTER_CLOSINGS` times while pressed (at its permanent set, or
+  reloading past ``D_max``; ``F_k > 0`` at the closing). A separation where the neighbours do
+  not press the pair (``F_k <= 0``: it leaves) starts the count again. A chain that rule 1
+  does not lock and whose contacts close again fewer times is the plain law's, bit for bit.
+
+Why :data:`CHATTER_CLOSINGS` = 8: a pressed pair with ``e < 0.05`` that comes back to its
+permanent set or to ``D_max`` is not bouncing apart but ringing on its line, about ``1 / e``
+times faster than its contact (its line is ``1 / e²`` times stiffer), for as long as the
+neighbours press it: hundreds to thousands of events for stiffness ratios of 1:1000. Eight
+closings are more than a genuine rebound sequence of such a contact has (each rebound's speed
+is ``e`` times the last: ``0.05^8 = 4e-11`` of the first, below the integrators' resolution),
+and few enough that a chattering chain locks within a few dozen events.
+
+Exact-chain locks by the same rules on its exact motion (:mod:`lsc.solvers.exact_chain._locks`:
+the reduced system of the clusters in closed form); diffrax refuses a scene with the feature.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
+from .model import HybridModel
+
+__all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
+           "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
+           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces", "hold_force"]
+
+#: Closings while pressed after which a contact locks at its next turning point (the module).
+CHATTER_CLOSINGS = 8
+
+#: Only a contact unloading by a restitution below this can lock (from 0.05 up, a pressed pair
+#: rings on its line at most ~20 times per period of its contact: the integrators follow it).
+WATCH_RESTITUTION = 0.05
+
+#: A contact with a restitution below this locks at its max deformation where pressed (rule 1):
+#: its rebound, ``e² D_max`` wide, is below 1e-10 of ``D_max`` (SciPy's default rtol), which
+#: the integrators do not resolve, and a pair pressed on it rings over 1e5 times faster than
+#: its contact (the plain law chatters). From 1e-5 on, only a counted chatter locks.
+LOCK_RESTITUTION = 1e-5
+
+#: The model feature of a scene whose pairs may lock (:func:`lock_features`).
+FEATURE = "contact:lock"
+
+
+def can_lock(model) -> bool:
+    """Whether ``model``'s contacts can lock: a chain (three vehicles or more) of IF-D contacts
+    with no brake and no failure effect (whose forces the locked force would need)."""
+    return (model.N >= 3 and not model.brakes and not model.failures
+            and all(isinstance(law, HysteresisLaw) for law in model.laws))
+
+
+def may_lock(model, k: int, p=None, below: float = WATCH_RESTITUTION) -> bool:
+    """Whether contact ``k`` of a chain that :func:`can_lock` may lock: it unloads by a
+    restitution below ``below`` (``p``: the parameters, the model's own by default)."""
+    p = model.params if p is None else p
+    return model.laws[k].unload_kind == "restitution" and float(p["contacts"][k]["e"]) < below
+
+
+def locks_at_max(model, k: int, w: int, was: dict, now: dict, p) -> bool:
+    """Whether contact ``k``'s law event ``w`` is a max deformation where rule 1 locks a
+    pressed pair: an instant separation, or a restitution below :data:`LOCK_RESTITUTION`."""
+    return w == 2 and int(was["mode"]) == MODE_LOADING and (
+        int(now["mode"]) == MODE_OPEN or may_lock(model, k, p, LOCK_RESTITUTION))
+
+
+def lock_members(model, p) -> np.ndarray:
+    """(n,) bool: the members of a batch (``p``: parameters with a leading member axis of
+    ``n``) whose pairs may lock (:func:`may_lock` on each member's restitutions): a batch path
+    that follows the plain law hands them to the single solve, which locks."""
+    n = int(np.shape(p["m"])[0])
+    out = np.zeros(n, bool)
+    if can_lock(model):
+        for k, law in enumerate(model.laws):
+            if law.unload_kind == "restitution":
+                out |= np.broadcast_to(np.asarray(p["contacts"][k]["e"], float), (n,)) \
+                    < WATCH_RESTITUTION
+    return out
+
+
+def lock_features(model) -> frozenset[str]:
+    """``{FEATURE}`` where some pair of ``model`` may lock, else empty (the backend contract:
+    :meth:`lsc.model.HybridModel.features`)."""
+    if can_lock(model) and any(may_lock(model, k) for k in range(model.K)):
+        return frozenset({FEATURE})
+    return frozenset()
+
+
+def hold_force(model, y, disc, p, locked, k) -> float:
+    """The force [force] contact ``k`` carries with the contacts ``locked`` locked (the laws'
+    forces of the others in discrete state ``disc``, :func:`cluster_forces`)."""
+    F = HybridModel.forces(model, y, disc, p)
+    rows, _ = cluster_forces(F, p["m"], clusters(locked, model.N), model.K)
+    return float(rows[k])
+
+
+def closing_step(w: int, was: dict, now: dict) -> str | None:
+    """What law event ``w`` (0 lo, 1 hi, 2 vmax) from law state ``was`` to ``now`` did to the
+    count of closings: ``"close"`` (closed again at the permanent set, or reloaded past
+    ``D_max``), ``"open"`` (separated), or ``None``."""
+    mb, ma = int(was["mode"]), int(now["mode"])
+    if w == 1 and ((mb == MODE_OPEN and ma != MODE_OPEN)
+                   or (mb == MODE_UNLOADING and ma == MODE_LOADING)):
+        return "close"
+    return "open" if ma == MODE_OPEN and mb != MODE_OPEN else None
+
+
+def recount(step: str, pressed: bool, count: float, mode_after: int) -> tuple[float, float]:
+    """``(count, watch)`` after a closing ``step`` (:func:`closing_step`): a closing while
+    pressed counts; a separation while not pressed starts again. ``watch``: 0 (none), 1 (lock
+    at the next turning point on the line), 2 (lock at the next max deformation)."""
+    if step == "open":
+        return (float(count) if pressed else 0.0), 0.0
+    count = float(count) + (1.0 if pressed else 0.0)
+    if count < CHATTER_CLOSINGS:
+        return count, 0.0
+    return count, (1.0 if int(mode_after) == MODE_UNLOADING else 2.0)
+
+
+class LockPart:
+    """The lock of contact ``k`` (a part of the hybrid model, after the laws).
+
+    Discrete state: ``mode`` (1 while locked), ``count`` (closings while pressed,
+    :func:`recount`), ``watch`` (1: the ``settle`` event is armed, the lock fires at the next
+    turning point on the line; 2: at the next max deformation), ``kind`` (0: locked at a max
+    deformation, released at zero force by the law's own transition; 1: locked on the line,
+    released onto it), ``ftop``
+    [force] and ``dlock`` [length], and the law's state before the lock under ``law_*`` keys.
+
+    Events (each crossing zero downward): ``unlock_zero`` (``F_k``), ``unlock_line``
+    (``F_top - F_k``), ``settle`` (the closing rate ``dD/dt``); all linear in the state."""
+
+    event_kinds = ("unlock_zero", "unlock_line", "settle")
+
+    def __init__(self, k: int):
+        self.k = k
+
+    @staticmethod
+    def init() -> dict:
+        """Unlocked, not watching, no closing counted."""
+        return {"mode": 0, "count": 0.0, "watch": 0.0, "kind": 0.0, "ftop": 0.0, "dlock": 0.0}
+
+    @staticmethod
+    def armed(st) -> tuple:
+        """Which events can fire in this state."""
+        on = bool(st["mode"])
+        return (on, on, st["watch"] == 1.0 and not on)
+
+    @staticmethod
+    def event_linear(laws) -> tuple:
+        """Every release condition is affine in the neighbours' IF-D forces: linear."""
+        return (True, True, True)
+
+    @staticmethod
+    def events(force, closing_rate, st) -> list:
+        """``[F_k, F_top - F_k, dD/dt]`` where armed (1 where not)."""
+        on, watch = bool(st["mode"]), st["watch"] == 1.0 and not st["mode"]
+        return [force if on else 1.0, st["ftop"] - force if on else 1.0,
+                closing_rate if watch else 1.0]
+
+    @staticmethod
+    def locked(st, law_state: dict, ftop: float, D: float, kind: int) -> dict:
+        """The lock's state when it locks with the law in ``law_state``."""
+        out = {"mode": 1, "count": float(st["count"]), "watch": 0.0, "kind": float(kind),
+               "ftop": float(ftop), "dlock": float(D)}
+        out.update({"law_" + key: val for key, val in law_state.items()})
+        return out
+
+    @staticmethod
+    def saved(st) -> dict:
+        """The law's state saved when the lock locked."""
+        return {key[4:]: (int(val) if key[4:] in ("mode", "seg", "status") else val)
+                for key, val in st.items() if key.startswith("law_")}
+
+
+def clusters(locked, N: int) -> list[tuple[int, int]]:
+    """The vehicle ranges ``(a, b)`` (inclusive) joined by the locked contacts ``locked``."""
+    out = []
+    for k in sorted(locked):
+        if out and out[-1][1] == k:
+            out[-1] = (out[-1][0], k + 1)
+        else:
+            out.append((k, k + 1))
+    return out
+
+
+def cluster_forces(F, m, groups, K: int):
+    """The contact forces (K, ...) with each locked contact's force from its cluster's motion,
+    and each cluster's acceleration: ``[(a, b, accel)]``. ``F``: the contact forces (K, ...)
+    [force] (the locked contacts' rows are replaced); ``m`` (N,) [mass]."""
+    rows = list(F)
+    accels = []
+    for a, b in groups:
+        left = F[a - 1] if a > 0 else 0.0 * F[0]
+        right = F[b] if b < K else 0.0 * F[0]
+        mass = float(np.sum(m[a:b + 1]))
+        rear = 0.0
+        for k in range(a, b):
+            rear += float(m[k])
+            rows[k] = ((mass - rear) * left + rear * right) / mass
+        accels.append((a, b, (left - right) / mass))
+    return rows, accels
+
+
+class LockingModel(HybridModel):
+    """A chain's :class:`~lsc.model.HybridModel` with a lock per contact (after the laws and
+    effects, in :attr:`parts` and the discrete state). NumPy only: SciPy's backend builds it
+    (:func:`locking_model`); exact-chain drives its transitions on its own exact motion
+    (:mod:`lsc.solvers.exact_chain._locks`); diffrax refuses chains whose pairs may lock."""
+
+    def _more_parts(self) -> list:
+        """One :class:`LockPart` per contact."""
+        self.locks = [LockPart(k) for k in range(self.K)]
+        return self.locks
+
+    def initial(self, p=None, xp=np):
+        """The plain model's initial state, every lock open."""
+        y0, disc = super().initial(p, xp)
+        return y0, disc + [lock.init() for lock in self.locks]
+
+    def forces(self, y, disc, p, xp=np):
+        """Contact forces (K, ...) [force], a locked contact's from its cluster's motion
+        (:func:`cluster_forces`)."""
+        F = self._law_forces(y, disc, p, xp)
+        locked = self.locked(disc)
+        if not locked:
+            return F
+        rows, _ = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
+        return xp.asarray(rows)
+
+    def _law_forces(self, y, disc, p, xp=np):
+        """The contact laws' forces (K, ...) [force] (0 for a locked contact)."""
+        return HybridModel.forces(self, y, disc, p, xp)
+
+    def accelerations(self, y, disc, p, xp=np):
+        """As the plain model's, each vehicle of a cluster at the cluster's one acceleration
+        (exactly: no rounding may open the held deformation)."""
+        F, net, a = super().accelerations(y, disc, p, xp)
+        locked = self.locked(disc)
+        if locked:
+            _, accels = cluster_forces(self._law_forces(y, disc, p, xp), p["m"],
+                                       clusters(locked, self.N), self.K)
+            acc = [a[i] for i in range(self.N)]
+            for first, last, shared in accels:
+                acc[first:last + 1] = [shared] * (last + 1 - first)
+            a = xp.asarray(acc)
+        return F, net, a
+
+    def _effect_events(self, y, disc, p, xp):
+        """The locks' event functions (a chain that can lock has no other effect)."""
+        F, _, _ = self.accelerations(y, disc, p, xp)
+        _, Dd = self.deformation(y, p, xp)
+        off = self._lock_offset
+        vals = []
+        for lock in self.locks:
+            vals.extend(lock.events(F[lock.k], Dd[lock.k], disc[off + lock.k]))
+        return vals
+
+    def apply_event(self, i: int, t, y, disc, p, xp=np):
+        """The discrete state after event ``i``: its own part's transition (none for a lock's),
+        then the locks lock, watch or release as it makes them (:meth:`_relock`)."""
+        own = self.events[i][0] < self._lock_offset
+        new = super().apply_event(i, t, y, disc, p, xp) if own else list(disc)
+        return self._relock(i, y, disc, new, p)
+
+    def event_name(self, i: int, before, after) -> str:
+        """What event ``i`` was (``+lock`` where it locked its contact; a lock's own event:
+        ``lock``, ``unlock``, ``separation`` or ``settle``)."""
+        j, _ = self.events[i]
+        off = self._lock_offset
+        if j >= off:
+            return self._lock_name(before[j], after[j], after[j - off])
+        name = super().event_name(i, before, after)
+        if j < self.K and after[off + j]["mode"] and not before[off + j]["mode"]:
+            name = name.replace("+separation", "") + "+lock"
+        return name
+
+    def event_index(self, i: int) -> int:
+        """The contact (or vehicle) that event ``i`` concerns."""
+        j, _ = self.events[i]
+        return j - self._lock_offset if j >= self._lock_offset else super().event_index(i)
+
+    @property
+    def _lock_offset(self) -> int:
+        """The index of the first lock part in :attr:`parts` (and in the discrete state)."""
+        return self.K + len(self.brakes) + len(self.failures)
+
+    def locked(self, disc) -> list[int]:
+        """The locked contacts in discrete state ``disc``."""
+        off = self._lock_offset
+        return [lock.k for lock in self.locks if disc[off + lock.k]["mode"]]
+
+    @staticmethod
+    def _lock_name(before, after, law_after) -> str:
+        """The name of a lock's event from its states and its law's state after it."""
+        if after["mode"] and not before["mode"]:
+            return "lock"
+        if before["mode"] and not after["mode"]:
+            return "separation" if int(law_after["mode"]) == 0 else "unlock"   # 0: open
+        return "settle"
+
+    def side_events(self, i: int, before, after) -> list[tuple[str, int]]:
+        """``[(name, contact)]``: the locks that event ``i`` released besides its own part (a
+        cluster whose push ended with a neighbour's event), named as their own events."""
+        j = self.events[i][0]
+        out = []
+        for lock in self.locks:
+            jj = self._lock_offset + lock.k
+            if jj != j and before[jj]["mode"] and not after[jj]["mode"]:
+                out.append((self._lock_name(before[jj], after[jj], after[lock.k]), lock.k))
+        return out
+
+    def _relock(self, i, y, before, new, p):
+        """The locks after event ``i`` (its own transition already in ``new``): lock, count,
+        watch or release (:mod:`lsc.locking`), then release every lock its force has left
+        (:meth:`_settle_locks`)."""
+        j, w = self.events[i]
+        off = self._lock_offset
+        if j < self.K and may_lock(self, j, p):
+            new = self._law_event(j, w, y, before[j], new, p)
+        elif j >= off:
+            k = j - off
+            if w == 2:   # settle: the turning point on the line the watch waited for
+                new[j] = dict(new[j], watch=0.0)
+                st = new[k]
+                if int(st["mode"]) == MODE_UNLOADING:
+                    D, _ = self.deformation(y, p)
+                    ftop = self.laws[k].force(D[k], 0.0, st)
+                    new = self._try_lock(k, y, new, p, st, st, ftop, 1)
+            else:
+                new = self._release(k, w == 1, y, new, p)
+        return self._settle_locks(y, new, p)
+
+    def _law_event(self, k, w, y, was, new, p):
+        """``new`` after contact ``k``'s law event ``w`` from law state ``was``: locked at a
+        max deformation (an instant separation, or one the watch waited for) where pressed,
+        else its closings counted (:func:`recount`)."""
+        now, lock = new[k], new[self._lock_offset + k]
+        if locks_at_max(self, k, w, was, now, p) or (
+                w == 2 and int(was["mode"]) == MODE_LOADING and lock["watch"] == 2.0):
+            D, _ = self.deformation(y, p)
+            new = self._try_lock(k, y, new, p, was, now, self.laws[k].force(D[k], 0.0, was), 0)
+            if new[self._lock_offset + k]["mode"]:
+                return new
+            # (not pressed: the turning point passed; a line too stiff to resolve is watched
+            # from the start, its turning points lock where pressed)
+            lock = dict(lock, watch=1.0 if int(now["mode"]) == MODE_UNLOADING else 0.0)
+        step = closing_step(w, was, now)
+        if step is not None:
+            pressed = hold_force(self, y, new, p, sorted({*self.locked(new), k}), k) > 0.0
+            count, watch = recount(step, pressed, lock["count"], now["mode"])
+            lock = dict(lock, count=count, watch=watch)
+        new = list(new)
+        new[self._lock_offset + k] = lock
+        return new
+
+    def _try_lock(self, k, y, new, p, saved, records, ftop, kind):
+        """``new`` with contact ``k`` locked where its neighbours press it inside the law's
+        range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
+        the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
+        force = hold_force(self, y, new, p, sorted({*self.locked(new), k}), k)
+        if not 0.0 < force < float(ftop):
+            return new
+        D, _ = self.deformation(y, p)
+        new = list(new)
+        new[k] = dict(records, mode=MODE_UNLOADING, da=0.0, fa=0.0, s=0.0, lo=-BIG, wl=BIG,
+                      hi=BIG, vm=0.0)
+        new[self._lock_offset + k] = LockPart.locked(new[self._lock_offset + k], saved,
+                                                     float(ftop), float(D[k]), kind)
+        return new
+
+    def _release(self, k, high: bool, y, new, p):
+        """``new`` with contact ``k``'s lock released: onto the law's saved state (reloading
+        along its line or curve; ``high``, or a lock on the line), or at zero force from a max
+        deformation by the law's own transition (it separates there)."""
+        off = self._lock_offset
+        lock = new[off + k]
+        law_state = LockPart.saved(lock)
+        if not high and not lock["kind"]:
+            # (at the held deformation: the pair's residual closing rate at the lock, a
+            # rounding error, has moved it by a rounding error since)
+            mu = self._mu(p, np)
+            law_state = self.to_python([self.laws[k].on_event(
+                2, lock["dlock"], 0.0, law_state, p["contacts"][k], np, mu=mu[k])])[0]
+        new = list(new)
+        new[k] = law_state
+        new[off + k] = dict(LockPart.init(), count=lock["count"])   # (a pair that chattered)
+        return new
+
+    def _settle_locks(self, y, new, p):
+        """Release, one at a time, each lock whose force has left ``(0, F_top)``."""
+        for _ in range(len(self.locks) + 1):
+            locked = self.locked(new)
+            if not locked:
+                break
+            rows, _ = cluster_forces(self._law_forces(y, new, p), p["m"],
+                                     clusters(locked, self.N), self.K)
+            out = [(k, float(rows[k]) >= new[self._lock_offset + k]["ftop"]) for k in locked
+                   if not 0.0 < float(rows[k]) < new[self._lock_offset + k]["ftop"]]
+            if not out:
+                break
+            new = self._release(*out[0], y, new, p)
+        return new
+
+
+def warning(locks) -> str:
+    """The Result's warning where contacts locked: ``locks``, ``[(contact, time [s])]``. The
+    motion then left the plain IF-D law (which chatters there) for its locked-pair model."""
+    times = {}
+    for k, t in locks:
+        times.setdefault(k, []).append(t)
+    which = "; ".join(f"contact {k} at t = {ts[0]:.6g} s" + (f" and {len(ts) - 1} more times "
+                      f"to t = {ts[-1]:.6g} s" if len(ts) > 1 else "")
+                      for k, ts in sorted(times.items()))
+    return (f"a pressed pair locked ({which}): the plain IF-D law chatters there (it closes "
+            f"again and again); the pair moved as one body while pressed, a model of that "
+            f"chatter's limit (see 'Locked pairs' in the physics docs; methods 'scipy' and "
+            f"'exact-chain' lock by the same rules, 'diffrax' refuses such chains)")
+
+
+def lock_warnings(events) -> dict:
+    """``{"warnings": [warning]}`` where a pair locked in ``events`` (a run's
+    :class:`~lsc.result.Event` list), else ``{}``: a Result's stats."""
+    locked = [(e.index, e.time) for e in events if "lock" in e.kind.split("+")]
+    return {"warnings": [warning(locked)]} if locked else {}
+
+
+def locking_model(model):
+    """``model`` with its locks (:class:`LockingModel`, built once per model), or ``model``
+    itself where it has them or has no pair that may lock (:func:`lock_features`)."""
+    if isinstance(model, LockingModel) or not lock_features(model):
+        return model
+    if getattr(model, "_locking_model", None) is None:
+        model._locking_model = LockingModel(model.scene)
+    return model._locking_model

@@ -1,0 +1,227 @@
+"""Locked pairs in exact-chain (issue 13, item 5; lsc/solvers/exact_chain/_locks.py): the same
+rules as SciPy's (lsc.locking), on the exact motion of the reduced system of the clusters.
+
+- Exact-chain against SciPy at rtol 1e-12 on chattering chains (tests/test_locked_pairs.py's
+  stored chains that SciPy finishes, and a pair pushed shut): the same events (kind and contact;
+  the times of the locks and releases to 1e-9 of the duration) and every metric to SciPy's
+  tolerance (tests/hard/common.py ``check_agrees``: ΔV to ``GLOBAL_FACTOR x rtol`` of the
+  closing speed, the energies, the max deformations). A contact touching at rest that a
+  neighbour pushes shut closes at t = 0 in exact-chain and when SciPy's event detection sees its
+  high-power growth (~1e-5 s): those closing times are not compared.
+- Momentum to 1e-14 (no brakes) and the energy balance (``check_result``): the locked force is
+  internal to its cluster and does no work.
+- A pair that locks and is released later: its deformation held while locked, then the plain
+  law; the pair against one merged vehicle (closed form), as for SciPy.
+- A chain in which no lock fires (e = 0.001, PLAIN_CHAIN) is the plain exact-chain bit for bit.
+- ``auto`` (exact-chain for chains) finishes a chattering chain and says which pairs locked.
+- A lock counted by closings (rule 2) is decided where a closing's press force is near zero, so
+  exact-chain and SciPy may count one closing apart: both stay within the bounce energy of the
+  tight plain solve (the bound of test_locked_pairs.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import event, given
+
+import lsc
+import lsc.locking
+from hard.common import (HARD, chain, check_agrees, check_result, closing_scale, hard_settings,
+                         momentum_error)
+from hard.test_chains import chains as hard_chains
+from test_locked_pairs import (CHATTERING_CHAINS, FEW_EVENTS, K_REAR, M, PLAIN_CHAIN, V0,
+                               _locks, _without_locks)
+
+RTOL = 1e-12   # SciPy's tolerance in the comparisons
+
+
+def _pushed(k_front: float, e_front: float = 0.0) -> dict:
+    """Car 0 (e = 0.3) strikes cars 1 and 2, touching at rest on a contact of stiffness
+    ``k_front`` and restitution ``e_front``."""
+    return chain(list(M), [V0, 0.0, 0.0], [
+        {"loading": {"stiffness": K_REAR}, "unloading": {"restitution": 0.3}, "gap": 0.0},
+        {"loading": {"stiffness": k_front}, "unloading": {"restitution": e_front}, "gap": 0.0}])
+
+
+#: Four cars from scripts/locked_pairs_census.py (--seed 3, chain 12): contacts 1 and 2 locked,
+#: the cluster of cars 1-3 pushed by contact 0 alone, so lock 2's force and contact 0's reach
+#: zero at the same instant (to rounding). Exact-chain released lock 2 first (a separation and
+#: a closing again of contact 2) where SciPy separates contact 0 first, which releases the
+#: cluster: ΔV 2e-7 of the closing speed apart; now the law event goes first.
+TIED_RELEASE = {"units": "US", "vehicles": [
+    {"mass": 3.9810717055349722, "speed": 6.817283642998686},
+    {"mass": 1.0, "speed": 4.981071705534973}, {"mass": 1.0, "speed": 1.0},
+    {"mass": 30.50980262167514, "speed": 0.0}], "contacts": [
+    {"loading": {"table": [[0.0, 0.0], [0.0014031291998229344, 0.14031291998229345],
+                           [0.0028062583996458688, 0.14031291998229345],
+                           [1000.0, 999997.3340545202]]},
+     "unloading": {"restitution": 0.010009904201689927}, "gap": 0.0},
+    {"loading": {"table": [[0.0, 0.0], [0.001000000000000001, 0.30436244870317375],
+                           [0.002000000000000002, 0.30436244870317375],
+                           [1000.0, 3043618.704145209]]},
+     "unloading": {"restitution": 1e-06}, "gap": 0.0},
+    {"loading": {"stiffness": 16597.32528862461},
+     "unloading": {"restitution": 6.225024846304976e-09}, "gap": 0.0}]}
+
+
+def _events(r):
+    return [(e.kind, e.index) for e in r.events]
+
+
+@pytest.mark.parametrize("scene", [CHATTERING_CHAINS[0], CHATTERING_CHAINS[3], _pushed(2e6),
+                                   TIED_RELEASE],
+                         ids=["e0-tables", "counted-4cars", "pushed-pair", "tied-release"])
+def test_exact_chain_locks_where_scipy_locks(scene):
+    exact = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
+    ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)
+    assert exact.method == "exact-chain" and _locks(exact)
+    assert _events(exact) == _events(ref)
+    for a, b in zip(exact.events, ref.events):
+        if "lock" in a.kind or "separation" in a.kind:
+            assert abs(a.time - b.time) <= 1e-9 * ref.duration, (a, b)
+    check_agrees(ref, exact)     # SciPy's ΔV, energies, max deformations to its tolerance
+    check_result(exact)
+    assert momentum_error(exact) <= 1e-14
+    assert exact.warnings == ref.warnings == (lsc.locking.warning(_locks(exact)),)
+
+
+def test_a_pair_locks_holds_its_deformation_and_is_released():
+    k_front = 2e6
+    r = lsc.solve(_pushed(k_front), method="exact-chain")
+    kinds = [e.kind for e in r.events if e.index == 1]
+    lock = kinds.index("max_deformation+lock")
+    assert "unlock" in kinds[lock:] and "separation" in kinds[lock:]
+    # the longest span locked
+    spans = [(a.time, b.time) for a, b in zip(r.events, r.events[1:])
+             if a.kind == "max_deformation+lock" and b.kind == "unlock"]
+    t_lock, t_free = max(spans, key=lambda span: span[1] - span[0])
+    # held: the deformation of contact 1 between the lock and the release, to rounding
+    inside = (r.t > t_lock) & (r.t < t_free)
+    held = r.deformation[inside, 1]
+    assert held.size > 3 and np.ptp(held) <= 1e-12 * np.max(np.abs(r.deformation[:, 1]))
+    # the locked force: each vehicle of the pair at the pair's one acceleration
+    assert np.allclose(r.a[inside, 1], r.a[inside, 2], rtol=1e-12, atol=0)
+    check_result(r)
+    assert momentum_error(r) <= 1e-14
+    merged = lsc.solve(chain([M[0], M[1] + M[2]], [V0, 0.0], [
+        {"loading": {"stiffness": K_REAR}, "unloading": {"restitution": 0.3}, "gap": 0.0}]),
+        method="closed-form")
+    off = float(np.max(np.abs(r.delta_v[:2] - merged.delta_v))) / closing_scale(r.scene)
+    assert off <= 0.1 * K_REAR / k_front
+
+
+def test_a_chain_the_plain_law_finishes_is_the_plain_exact_chain_bit_for_bit(monkeypatch):
+    m, v, k, e, gaps = PLAIN_CHAIN
+    scene = chain(m, v, [{"loading": {"stiffness": ki}, "unloading": {"restitution": ei},
+                          "gap": gi} for ki, ei, gi in zip(k, e, gaps)])
+    r = lsc.solve(scene, method="exact-chain")
+    monkeypatch.setattr(lsc.locking, "lock_features", lambda model: frozenset())
+    plain = lsc.solve(scene, method="exact-chain")
+    assert r.warnings == () and not _locks(r)
+    assert [(e.time, e.kind, e.index) for e in r.events] == \
+        [(e.time, e.kind, e.index) for e in plain.events]
+    assert np.array_equal(r.v_final, plain.v_final)
+    assert np.array_equal(r.peak_force, plain.peak_force)
+
+
+def test_auto_finishes_a_chattering_chain_and_says_so():
+    r = lsc.solve(CHATTERING_CHAINS[0], method="auto")
+    assert r.method == "exact-chain" and len(r.events) < FEW_EVENTS
+    assert r.warnings == (lsc.locking.warning(_locks(r)),) and _locks(r)
+
+
+def test_a_counted_lock_stays_within_the_bounce_energy():
+    """Contact 1 (e = 0.03) rings pressed on its line and locks after 8 closings (rule 2):
+    every ΔV within ``e sqrt(2 E_c / μ)`` of the tight plain-law solve (test_locked_pairs.py)."""
+    scene = _pushed(2e5, 0.03)
+    r = lsc.solve(scene, method="exact-chain")
+    assert _locks(r) and len(r.events) < 40
+    check_result(r)
+    assert momentum_error(r) <= 1e-14
+    with pytest.MonkeyPatch.context() as mp:
+        _without_locks(mp)
+        plain = lsc.solve(scene, method="scipy", rtol=RTOL)
+    mu = M[1] * M[2] / (M[1] + M[2])
+    bound = 0.03 * np.sqrt(2 * float(plain.energy_absorbed[1]) / mu)
+    assert 0 < float(np.max(np.abs(r.delta_v - plain.delta_v))) < bound
+
+
+@pytest.mark.skipif(not HARD, reason="hard mode only (pytest --hard)")
+@hard_settings(1, 40)
+@given(hard_chains(n_max=5, e_min=0.0, e_max=0.05).map(lambda case: case[1]))
+def test_near_plastic_chains_lock_in_exact_chain_as_in_scipy(scene):
+    """Every near-plastic chain: exact-chain finishes (momentum, energy balance, the lock
+    warning) or stops with a SimulationError; where it and SciPy (rtol 1e-12) both finish with
+    the same events, they agree to SciPy's tolerance."""
+    try:
+        exact = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
+    except lsc.SimulationError as err:
+        event("exact-chain stops: " + str(err).split(":")[0][:40])
+        return
+    check_result(exact)
+    assert exact.warnings == ((lsc.locking.warning(_locks(exact)),) if _locks(exact) else ())
+    try:
+        ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)
+    except lsc.SimulationError:
+        event("scipy stops")
+        return
+    if _events(exact) != _events(ref):
+        event("events differ")
+        return
+    event("same events" + (" (locked)" if _locks(exact) else ""))
+    check_agrees(ref, exact)
+
+
+def test_the_batch_hands_members_that_may_lock_to_the_single_solve():
+    """A sweep of the pushed pair's restitution from a nominal e = 0.1 (no pair may lock): the
+    members below 0.05 are solved alone, which locks (e = 0.03: the plain law, in the batch,
+    gave other numbers than the single solve before)."""
+    from lsc.model import HybridModel
+    from lsc.solvers.exact_chain import solve_batch
+
+    model = HybridModel(lsc.Scene.load(_pushed(2e5, 0.1)))
+    e = np.array([0.1, 0.03, 0.0])
+    out = solve_batch(model, {"contacts.1.unloading.restitution": e})
+    assert list(out["status"]) == ["ok"] * 3
+    for j in (1, 2):
+        r = lsc.solve(_pushed(2e5, float(e[j])), method="exact-chain")
+        assert _locks(r)
+        for name in ("delta_v", "max_deformation", "peak_force", "energy_absorbed"):
+            assert np.array_equal(out["metrics"][name][j], getattr(r, name)), name
+
+
+#: Five cars at rest touching, struck from behind (found by the hard test above, --hard): the
+#: plain exact-chain (locks or not) closes contact 3, pushed shut through three contacts (its
+#: deformation grows as a high power of time), only at the next event, 31.7 ms later (SciPy:
+#: 0.27 ms); the contact penetrates without force meanwhile and the energy balance is off by
+#: 0.27%. A defect of the restart rule (_solve._start), not of the locks: strict xfail until
+#: it is fixed.
+TOUCHING_FIVE = {"units": "US", "vehicles": [
+    {"mass": 698.7849139675732, "speed": 1.0}, {"mass": 239.49259812598862, "speed": 0.0},
+    {"mass": 1.0, "speed": 0.0}, {"mass": 9.843718589303307, "speed": 0.0},
+    {"mass": 79.43282347242814, "speed": 0.0}], "contacts": [
+    {"loading": {"table": [[0.0, 0.0], [0.03162277660168379, 89.73724843268823],
+                           [0.06324555320336758, 89.73724843268823],
+                           [1000.0, 28375704.59264677]]},
+     "unloading": {"restitution": 0.0}, "gap": 0.0},
+    {"loading": {"table": [[0.0, 0.0], [0.01, 41410.78619137847], [0.02, 41410.78619137847],
+                           [1000.0, 41409999386.44084]]},
+     "unloading": {"restitution": 0.04289900240339363}, "gap": 0.0},
+    {"loading": {"table": [[0.0, 0.0], [0.012589254117941675, 1258.9254117941675],
+                           [0.02517850823588335, 1258.9254117941675],
+                           [1000.0, 999976080.417176]]},
+     "unloading": {"restitution": 0.012065527960176896}, "gap": 0.0},
+    {"loading": {"table": [[0.0, 0.0], [0.03162277660168379, 31622776.60168366],
+                           [0.06324555320336758, 31622776.60168366],
+                           [1000.0, 9999399167244.527]]},
+     "unloading": {"restitution": 1e-11}, "gap": 0.0}]}
+
+
+@pytest.mark.xfail(strict=True, reason="exact-chain's restart rule closes a contact pushed shut "
+                   "through three contacts only at the next event (_solve._start)")
+def test_a_touching_contact_pushed_through_the_chain_closes_at_once():
+    r = lsc.solve(TOUCHING_FIVE, method="exact-chain", max_events=FEW_EVENTS)
+    closing = next(e.time for e in r.events if e.kind == "contact" and e.index == 3)
+    assert closing <= 1e-3
+    check_result(r)
