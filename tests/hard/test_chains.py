@@ -207,7 +207,7 @@ GRAZING_START_CHAIN = ("gaps", {
          "unloading": {"restitution": 0.7}, "gap": 0.0}]})
 
 
-@hard_settings(16)
+@hard_settings(8, 320)
 @given(chains(n_max=5 if HARD else 4, e_min=0.2))
 @example(RINGING_CHAIN)
 @example(GRAZING_START_CHAIN)
@@ -316,7 +316,7 @@ MODAL_MAX_EVENTS = 16
 MODAL_TOL = 1e-8
 
 
-@hard_settings(200, 2000, phases=[Phase.explicit, Phase.reuse, Phase.generate])
+@hard_settings(50, 2000, phases=[Phase.explicit, Phase.reuse, Phase.generate])
 @given(linear_chains())
 @example(REPRODUCER_CHAIN)
 def test_linear_chains_match_the_modal_solution(chain_data):
