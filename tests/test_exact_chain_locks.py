@@ -219,8 +219,14 @@ TOUCHING_FIVE = {"units": "US", "vehicles": [
      "unloading": {"restitution": 1e-11}, "gap": 0.0}]}
 
 
-def test_a_touching_contact_pushed_through_the_chain_closes_at_once():
-    r = lsc.solve(TOUCHING_FIVE, method="exact-chain", max_events=FEW_EVENTS)
-    closing = next(e.time for e in r.events if e.kind == "contact" and e.index == 3)
-    assert closing <= 1e-3
+#: (and test_locked_pairs.py's stored chain 2, five cars at rest touching: contacts 2 and 3
+#: closed at 0.05 s, the energy balance off by 4e-6; SciPy: 0.5 and 1.3 ms)
+@pytest.mark.parametrize("scene", [TOUCHING_FIVE, CHATTERING_CHAINS[2]],
+                         ids=["touching-five", "chattering-2"])
+def test_a_touching_contact_pushed_through_the_chain_closes_at_once(scene):
+    r = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
+    for k in range(len(scene["contacts"])):
+        closing = next(e.time for e in r.events
+                       if e.kind.split("+")[0] == "contact" and e.index == k)
+        assert closing <= 1e-3, k
     check_result(r)
