@@ -1,10 +1,13 @@
 """The exact chain's event search (lsc/solvers/exact_chain/_roots.py): the unclear intervals of
 a window listed on Python lists (a short window) and by NumPy (a long one) give the same rows,
 in the same order (by their first unclear interval, the first row on a tie), and the same
-intervals; and a search over a long window finds the same first crossing as over its halves.
+intervals; a search over a long window finds the same first crossing as over its halves; and
+the restart rule fires at once on a touching contact pushed shut through soft contacts.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -42,3 +45,34 @@ def test_a_long_window_finds_the_first_crossing_of_its_halves(monkeypatch):
     assert g(found[0]) == pytest.approx(0.0, abs=1e-15) and g(0.0) > 0
     monkeypatch.setattr(_roots, "SHORT", 0)
     assert _roots.earliest([g], 0.0, 1.0) == found
+
+
+@pytest.mark.parametrize("behind", [2, 3])
+def test_a_touching_contact_pushed_through_soft_contacts_fires_at_once(behind):
+    """The restart rule (``_solve._start``) on the deformation of a contact touching at rest,
+    ``behind`` contacts (slopes 1e3 N/m, masses 1 kg) from the rear car moving at 1 m/s, in a
+    model whose stiffest contact is far stiffer (1e5 rad/s, its time scale): the deformation
+    grows as ``τ^(2j+1)`` (``j = behind``) with ``D^(2j+1)(0) = v Π s/m`` (each contact passes
+    the one behind it on as a force), so ``hi - D`` (the contact's piece left going down) fires
+    at once and ``D - lo`` (going up) is left alone only for a while; the series agrees with
+    its Taylor term at small τ (brute force, where the higher orders are negligible)."""
+    from lsc.solvers.exact_chain._modes import Motion, deformation_map
+    from lsc.solvers.exact_chain._solve import START_TOL, _start
+
+    N, v, s, omega = behind + 2, 1.0, 1e3, 1e5
+    slope = np.array([s] * behind + [0.0])
+    x0, v0 = np.zeros(N), np.r_[v, np.zeros(N - 1)]
+    motion = Motion(np.ones(N), x0, v0, slope, np.zeros(N - 1), -deformation_map(N).T)
+    p = 2 * behind + 1
+    tol = START_TOL * v / omega   # (the chain's: START_TOL of its length, v_scale t_scale)
+    down = motion.deformation(behind, 0.0, -1.0)   # hi - D, at hi
+    terms = down.derivatives_from_zero()
+    d = [next(terms) for _ in range(p + 1)]
+    assert d[p] == pytest.approx(-v * s ** behind, rel=1e-9)
+    assert max(abs(x) for x in d[:p]) < 1e-12 * s ** behind
+    tau = 2e-3   # (ω τ <= 0.13 on every mode)
+    assert down(tau) == pytest.approx(d[p] * tau ** p / math.factorial(p), rel=1e-3)
+    assert _start(down, tol, omega, math.inf) == 0.0
+    up = motion.deformation(behind, 0.0)
+    later = _start(up, tol, omega, math.inf)
+    assert later is not None and 0.0 < later <= 1.0 / omega

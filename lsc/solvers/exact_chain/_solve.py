@@ -259,15 +259,20 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     docstring), ``None`` where it stays on it: ``g`` lies in the span of ``1, S_j, C_j``
     (``2n + 1`` functions for ``n`` modes), which differentiation maps into itself, so where its
     first ``2n + 1`` derivatives vanish every one does (Cayley-Hamilton), and ``g`` is zero all
-    along the segment."""
+    along the segment.
+
+    ``g^(p)(0)`` is rounding where it is within :func:`_rounding` of zero: ``tol`` [g's unit]
+    the rounding of ``g(0)``, ``omega`` [1/s] the rate that turns it into that of ``g'`` and
+    ``g''`` (the state's velocities and forces)."""
     order = 2 * g.alpha.size + 1
     if abs(g.c) > tol:
         return 0.0
-    terms = g.derivatives_from_zero()
+    terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
+    fastest = g.modes.fastest()
     for p in range(1, order + 1):
-        dp = next(terms)   # (each computed only where the ones below it are not clear)
-        if abs(dp) > tol * omega ** p:
+        dp, size = next(terms)   # (each computed only where the ones below it are not clear)
+        if abs(dp) > _rounding(tol, omega, fastest, p, size):
             break
     else:
         return None
@@ -281,3 +286,14 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     B = lower.curvature_bound(T)
     clear = (p + 1) * dp / B if B > 0 else T
     return min(0.5 * clear, T)
+
+
+def _rounding(tol: float, omega: float, fastest: float, p: int, size: float) -> float:
+    """How far from zero rounding can put ``g^(p)(0)`` (``p >= 1``): the start state's rounding,
+    ``tol omega^p`` up to ``p = 2`` (position, velocity, force), each further order one more
+    factor of the segment's ``fastest`` mode [1/s] (``g^(p+2) = -A g^(p)`` in the modes, ``|A|``
+    its largest ``κ``: not the model's stiffest contact, which a far contact of a long chain
+    pushed shut through soft ones, its deformation ``~ τ^(2j+1)``, would hide behind), and that
+    of the sum itself, a few ulps of its terms' ``size``."""
+    state = tol * omega ** min(p, 2) * fastest ** max(p - 2, 0)
+    return max(state, 64 * _EPS * size)
