@@ -64,10 +64,19 @@ def segment_peaks(records, K: int):
     ``(the largest force of each contact
     (K,), the acceleration of largest magnitude of each vehicle (N,), signed)`` over ``[0, τ]``
     (see the module docstring)."""
-    if not records:
-        return []
-    counts = [_intervals(motion.modes.fastest(), tau) for motion, _, tau, _ in records]
-    return _peaks(records, K, _packed([(j, 0, n, n) for j, n in enumerate(counts)]))
+    # (a segment with locked pairs has fewer modes, its reduced chain's: each number of modes
+    # is stacked on its own)
+    out = [None] * len(records)
+    by_size = {}
+    for j, (motion, _, _, _) in enumerate(records):
+        by_size.setdefault(motion.modes.kappa.size, []).append(j)
+    for idx in by_size.values():
+        some = [records[j] for j in idx]
+        counts = [_intervals(motion.modes.fastest(), tau) for motion, _, tau, _ in some]
+        found = _peaks(some, K, _packed([(j, 0, n, n) for j, n in enumerate(counts)]))
+        for j, pk in zip(idx, found):
+            out[j] = pk
+    return out
 
 
 def _packed(items, cut: bool = True):

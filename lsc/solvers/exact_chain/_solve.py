@@ -53,13 +53,17 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                                                      t_end=t_end, max_events=max_events)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": time.perf_counter() - start, **lock_warnings(events)}
-    if isinstance(transitions, LockTransitions):   # (the rows with the locked forces)
-        model, chain.ends = transitions._locking, []
+    if isinstance(transitions, LockTransitions):
+        # (the locking model's forces, locked ones included, at the event points: the rows
+        # built by build_result from the segments, not the plain law's of _Chain.rows)
+        model, rows = transitions._locking, None
+    else:
+        rows = chain.rows(segments)
     # the peaks between the events, located exactly by the chain's own search, all segments
     # at once
     return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
                         stats=stats, n_samples=n_samples, y_post=totals["y_post"],
-                        peaks=chain.spans(), interior=False, rows=chain.rows(segments))
+                        peaks=chain.spans(), interior=False, rows=rows)
 
 
 def _transitions(model):
@@ -169,15 +173,7 @@ class _Chain:
         force of each contact and the acceleration of largest magnitude of each vehicle,
         signed, at the segment's ends or at an interior extremum, every segment searched at
         once after the loop (:func:`~._peaks.segment_peaks`)."""
-        # (segments with locks have fewer modes, those of the reduced chain: each number of
-        # modes searched in its own stack)
-        peaks = [None] * len(self.records)
-        by_size = {}
-        for j, rec in enumerate(self.records):
-            by_size.setdefault(rec[1].modes.kappa.size, []).append(j)
-        for idx in by_size.values():
-            for j, pk in zip(idx, segment_peaks([self.records[j][1:] for j in idx], self.K)):
-                peaks[j] = pk
+        peaks = segment_peaks([rec[1:] for rec in self.records], self.K)
         return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
 
     # ------------------------------------------------------------------ events
