@@ -306,11 +306,14 @@ def _by_fd(sc, prms, needed, *, backend, step, rtol, reference, v_scale):
         got = {o: (values if o == 0 else metrics_of(scenes[o])[1]) for o in offsets}
         n += len(scenes)
         for k in needed:
-            derivs[k][..., j] = sum(w * got[o][k] for o, w in zip(offsets, weights)) / (12 * h)
+            def difference(ws, k=k):
+                return sum(w * got[o][k] for o, w in zip(offsets, ws)) / (12 * h)
+
+            derivs[k][..., j] = difference(weights)
             if h > step * reference[j]:
-                _check_floor(prm, k, derivs[k][..., j], sum(
-                    w * got[o][k] for o, w in zip(offsets, second)) / (12 * h), h, resolution * max(
-                        float(np.max(np.abs(got[o][k]), initial=0.0)) for o in offsets) / h)
+                noise = resolution * max(float(np.max(np.abs(got[o][k]), initial=0.0))
+                                         for o in offsets) / h
+                _check_floor(prm, k, derivs[k][..., j], difference(second), h, noise)
     stats = {"solves": n, "wall_time": time.perf_counter() - t0, "backend": r0.method,
              "step": step, "steps": steps.tolist()}
     return values, derivs, stats, (f"fourth-order central differences of lsc.solve "
