@@ -350,3 +350,40 @@ def test_a_non_finite_series_is_refused_when_sampled():
     assert lazy.delta_v.tolist() == r.delta_v.tolist()
     with pytest.raises(lsc.SimulationError, match=r"non-finite values in v\b"):
         lazy.v
+
+
+def _one_contact_records(n=64, seed=5):
+    """``n`` one-contact first-impact records (leading axis ``n``): touched and ended, touched
+    and still open at the end of the run, never touched, pushed shut (no closing speed)."""
+    rng = np.random.default_rng(seed)
+    ct = rng.uniform(0.0, 0.1, (n, 1))
+    end = ct + rng.uniform(1e-3, 0.2, (n, 1))
+    ct[::5] = np.nan                   # never touched
+    end[1::5] = np.nan                 # still in contact at the end of the run
+    v_touch = np.stack([rng.uniform(1, 10, n), rng.uniform(-1, 1, n)], -1)[:, None, :]
+    v_touch[2::5, 0, 1] = v_touch[2::5, 0, 0]   # pushed shut
+    v_touch[np.isnan(ct[:, 0])] = np.nan
+    v_sep = np.where(np.isnan(end)[..., None], np.nan, rng.uniform(-3, 8, (n, 1, 2)))
+    return {"contact_time": ct, "first_end": end, "v_touch": v_touch, "v_sep": v_sep,
+            "peak_force": rng.uniform(0, 1e5, (n, 1)),
+            "peak_acc": rng.uniform(-300, 300, (n, 1, 2)), "v_max": np.full(n, 10.0)}
+
+
+@pytest.mark.parametrize("resolution", [0.0, 1e-10])
+def test_the_one_contact_headline_is_the_general_tie_rule_s(resolution):
+    """:func:`lsc.metrics.headline` takes a shortcut for one contact (nothing can tie): it gives
+    the general rule's ``delta_v``, ``peak_acceleration`` and ``duration`` exactly, for impacts
+    ended, still open at the end of the run, never begun and pushed shut."""
+    first = _one_contact_records()
+    n = len(first["v_max"])
+    t_last, v_last = np.full(n, 0.5), np.random.default_rng(6).uniform(-2, 9, (n, 2))
+    got = M.headline(first, t_last, v_last, resolution=resolution)
+    ct, t1 = first["contact_time"], first["first_end"]
+    touched, ended = ~np.isnan(ct), ~np.isnan(t1)
+    v_end = np.where(ended[..., None], first["v_sep"], M.pairs(v_last, np))
+    c0 = np.where(touched, ct, 0.0)
+    end = np.where(ended, t1, t_last[..., None])
+    general = M._ties(first, touched, c0, end, first["v_touch"], v_end, resolution, np)
+    for name, want in zip(("delta_v", "peak_acceleration", "duration"), general):
+        np.testing.assert_array_equal(got[name], want, err_msg=name)
+    assert np.any(got["delta_v"] != 0) and np.any(got["duration"] == 0)
