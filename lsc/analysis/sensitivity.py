@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SceneError, SimulationError
+from ..metrics import TIE_ROUNDING
 from ..result import METRICS as RESULT_METRICS
 from ..scene import Scene
 from ._common import SummaryHTML
@@ -241,8 +242,9 @@ _STENCILS = (((-2, -1, 1, 2), (1, -8, 8, -1), (0, -6, 6, 0)),
 #: (it spans the parameter's value many times over) and the derivative is refused.
 _FLOOR_AGREEMENT = 1e-3
 #: The relative resolution of a solve by a backend that takes no ``rtol`` (exact, closed
-#: form): its rounding, a few hundred ulps of each metric.
-_EXACT_RESOLUTION = 1e-13
+#: form): its rounding, a few hundred ulps of each metric (the one figure the metrics' tie rule
+#: takes for an exact solve's times).
+_EXACT_RESOLUTION = TIE_ROUNDING
 
 
 def _fd_steps(prms, reference, step, resolution, v_scale) -> np.ndarray:
