@@ -387,3 +387,28 @@ def test_the_one_contact_headline_is_the_general_tie_rule_s(resolution):
     for name, want in zip(("delta_v", "peak_acceleration", "duration"), general):
         np.testing.assert_array_equal(got[name], want, err_msg=name)
     assert np.any(got["delta_v"] != 0) and np.any(got["duration"] == 0)
+
+
+#: Found by test_exact_vs_diffrax.py: the middle car's acceleration peaks at +102.70 then
+#: -102.63 ft/s² in one segment; the integrators refined only their largest probe: -102.63.
+TWO_PEAKS = {"units": "US", "vehicles": [{"mass": 1000.0, "speed": 10.0},
+                                         {"mass": 100.0, "speed": 0.0},
+                                         {"mass": 913.9816994654905, "speed": 0.0}],
+             "contacts": [{"loading": {"stiffness": 22467.900918126445},
+                           "unloading": {"restitution": 0.6875}, "gap": 1.0},
+                          {"loading": {"stiffness": 33982.083289425595},
+                           "unloading": {"restitution": 0.8828125}, "gap": 0.01}]}
+
+
+@pytest.mark.parametrize("method", ["scipy", "diffrax"])
+def test_of_two_near_equal_peaks_in_one_segment_the_larger_is_found(method):
+    """The middle car's acceleration peaks at +102.70 and then -102.63 ft/s² in one segment
+    (between contact 0's max deformation and contact 1's separation): the integrators probed 33
+    points, refined only the largest probe and gave -102.63, the wrong peak with the wrong sign.
+    Every local maximum of the probes is refined now: both give exact-chain's +102.70."""
+    if method == "diffrax":
+        pytest.importorskip("diffrax")
+    exact = lsc.solve(TWO_PEAKS, method="exact-chain")
+    r = lsc.solve(TWO_PEAKS, method=method)
+    assert exact.peak_acceleration[1] > 102.7
+    np.testing.assert_allclose(r.peak_acceleration, exact.peak_acceleration, rtol=1e-8)
