@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init", "ongoing", "fold_peaks",
-           "event_update", "restitution", "in_g", "tie_window", "TIE_ROUNDING", "simultaneous_touch", "headline",
-           "metrics"]
+__all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init",
+           "ongoing", "fold_peaks", "event_update", "restitution", "in_g", "tie_window",
+           "TIE_ROUNDING", "RESTART_SHIFT", "simultaneous_touch", "headline", "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
@@ -40,13 +40,23 @@ FIRST_KEYS = ("contact_time", "v_touch", "first_end", "v_sep", "peak_force", "pe
 #: after many events): the least ``resolution`` :func:`tie_window` takes.
 TIE_ROUNDING = 1e-13
 
+#: The integrators' restart shift, relative to an event's scale: an event that starts a segment
+#: on its surface fires only once the state is this far into it (SciPy's and diffrax's
+#: ``EVENT_TOL``), so a closing simultaneous with another event is seen up to this fraction of
+#: its contact's time scale late (4.5e-13 s of a 1.5 s impact, whatever the ``rtol``): the
+#: least ``resolution`` :func:`tie_window` takes for an integrator.
+RESTART_SHIFT = 1e-12
+
 
 def tie_window(t, span, resolution=0.0, xp=np):
     """(...) [time]: how far apart two closings can be and still be simultaneous, for a closing
     at time ``t`` (...) [time] whose impact lasts ``span`` (...) [time], in a solve whose event
     times are resolved to ``resolution`` [-] (relative; an integrator's ``rtol``, 0 for an
-    exact backend): ``max(resolution, TIE_ROUNDING) * max(|t|, span)``."""
-    return xp.maximum(resolution, TIE_ROUNDING) * xp.maximum(xp.abs(t), span)
+    exact backend): ``max(resolution, floor) * max(|t|, span)``, the floor
+    :data:`RESTART_SHIFT` for an integrator, :data:`TIE_ROUNDING` for an exact backend."""
+    resolution = xp.asarray(resolution)
+    floor = xp.where(resolution > 0, RESTART_SHIFT, TIE_ROUNDING)
+    return xp.maximum(resolution, floor) * xp.maximum(xp.abs(t), span)
 
 
 def pairs(v, xp=np):

@@ -70,6 +70,7 @@ def three_car_chains(draw):
 
 
 #: Found by this test (the middle car's two near-equal peaks: test_metrics.py)
+from test_exact_chain import _scale, _tie_order, _without_touches  # noqa: E402
 from test_metrics import TWO_PEAKS  # noqa: E402
 
 
@@ -81,17 +82,24 @@ def test_exact_chain_matches_the_tightest_diffrax_solve_on_random_chains(scene):
     """exact-chain against diffrax (Dopri8, rtol 1e-13) on random three-car chains: the same
     events, their times to 1e-8 of the run (a contact closing after a long flight at a small
     closing rate, a difference of speeds each known to ~1e-11, is timed to that over the rate:
-    2e-8 of a 166 s run measured), every metric to 1e-10 of its scale (the peak
-    accelerations, which diffrax locates on its dense output, an interpolant of lower order than
-    its steps, to 1e-9: 1.6e-10 measured)."""
+    2e-8 of a 166 s run measured), every metric to 1e-10 of its scale (the peaks, which
+    diffrax locates on its dense output, an interpolant less accurate than its steps, to 1e-9:
+    1.6e-10 measured on a peak force and a peak acceleration, where SciPy at rtol 1e-13 gives
+    exact-chain's value to the last digit)."""
     ex = lsc.solve(scene, method="exact-chain")
     dx = lsc.solve(scene, method="diffrax", integrator="Dopri8", rtol=1e-13)
-    assert [(e.kind, e.index) for e in ex.events] == [(e.kind, e.index) for e in dx.events]
     t_run = ex.events[-1].time
-    assert max(abs(a.time - b.time) for a, b in zip(ex.events, dx.events)) <= 1e-8 * t_run
+    # (simultaneous events in rounding's order, and a contact reloaded back exactly to its max
+    # deformation, a tangency rounding reads either way: as the modal comparison takes them)
+    ours, theirs = (_tie_order(_without_touches([(e.time, e.index, e.kind) for e in r.events],
+                                                t_run), t_run) for r in (ex, dx))
+    assert [e[1:] for e in ours] == [e[1:] for e in theirs]
+    assert max(abs(a[0] - b[0]) for a, b in zip(ours, theirs)) <= 1e-8 * t_run
     for name in METRICS:
         a, b = (np.asarray(getattr(r, name), float) for r in (ex, dx))
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
-        scale = np.max(np.abs(a[np.isfinite(a)]), initial=0.0)
-        tol = (1e-9 if name.startswith("peak_acceleration") else 1e-10) * scale
+        scale = _scale(ex, name)
+        if not np.isfinite(scale):   # (NaN where a contact never touched, or was pushed shut)
+            scale = np.max(np.abs(a[np.isfinite(a)]), initial=0.0)
+        tol = (1e-9 if name.startswith("peak") else 1e-10) * scale
         np.testing.assert_allclose(a, b, rtol=0, atol=tol, equal_nan=True, err_msg=name)

@@ -39,6 +39,7 @@ from ..effects import BrakeEffect
 from ..errors import SimulationError
 from .. import locking
 from ..locking import locking_model
+from ..metrics import RESTART_SHIFT
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
 from . import step_roots
 from .base import Backend
@@ -69,8 +70,9 @@ def _other(integrator: str) -> str:
     return " or ".join(f"integrator {i!r}" for i in others)
 
 
-#: Start-on-surface threshold, relative to each event's scale (as the diffrax backend's).
-EVENT_TOL = 1e-12
+#: Start-on-surface threshold, relative to each event's scale (as the diffrax backend's; the
+#: metrics' tie rule allows for the delay it gives a simultaneous event).
+EVENT_TOL = RESTART_SHIFT
 
 
 def _event_scales(model) -> np.ndarray:

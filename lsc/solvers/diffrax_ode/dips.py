@@ -25,11 +25,13 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 from jax import lax  # noqa: E402
 
+from ...metrics import RESTART_SHIFT  # noqa: E402
+
 __all__ = ["dip_floor", "EventSearch", "EVENT_TOL", "THETA", "BARY"]
 
 #: Where an event that starts a segment on or past its surface is moved (dimensionless: event
-#: value over its scale).
-EVENT_TOL = 1e-12
+#: value over its scale; the metrics' tie rule allows for the delay it gives a simultaneous event).
+EVENT_TOL = RESTART_SHIFT
 #: Most bracketed Newton iterations locating an event on a step's interpolant (they stop when the
 #: root moves by less than ROOT_TOL of the step, or 4 ulps of the time: the polish, one Newton step
 #: on the integrator's own solution, then squares that error away).
