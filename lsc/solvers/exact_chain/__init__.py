@@ -37,12 +37,15 @@ BACKEND = Backend(
 
 
 def __getattr__(name):
+    # (kept in the module once imported: a solve asks for it every time)
     if name == "solve":
         from ._solve import solve
 
+        globals()["solve"] = solve
         return solve
     if name == "solve_batch":
         from ._batch import solve_batch
 
+        globals()["solve_batch"] = solve_batch
         return solve_batch
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -27,6 +27,7 @@ bound on ``|g''|`` over an interval in closed form.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -35,11 +36,13 @@ import numpy as np
 __all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
 
 
+@functools.lru_cache(maxsize=64)
 def deformation_map(N: int) -> np.ndarray:
-    """``C`` (N-1, N): ``D_k = x_k - x_{k+1} - gap_k``."""
+    """``C`` (N-1, N): ``D_k = x_k - x_{k+1} - gap_k`` (built once per ``N``, read-only)."""
     C = np.zeros((N - 1, N))
     C[np.arange(N - 1), np.arange(N - 1)] = 1.0
     C[np.arange(N - 1), np.arange(1, N)] = -1.0
+    C.flags.writeable = False
     return C
 
 
@@ -113,7 +116,8 @@ class Modes:
         (harmonic and rigid modes) and ``S <= sinh(λT)/λ``, ``S' <= cosh(λT)`` (hyperbolic)."""
         s_max = np.minimum(T, self._inv_w)
         if not self.neg.size:
-            return np.abs(alpha * self.kappa) @ s_max + np.abs(gamma).sum(axis=-1)
+            # (np.add.reduce: the sum np.sum computes, without its Python wrapper)
+            return np.abs(alpha * self.kappa) @ s_max + np.add.reduce(np.abs(gamma), axis=-1)
         ds_max = np.ones_like(s_max)
         w = self.w[self.neg]
         with np.errstate(over="ignore"):
@@ -141,7 +145,7 @@ class Series:
 
     def derivative(self) -> "Series":
         """``g'``: ``S' = 1 - κ C``, ``C' = S``."""
-        return Series(float(np.sum(self.alpha)), self.gamma, -self.modes.kappa * self.alpha,
+        return Series(float(np.add.reduce(self.alpha)), self.gamma, -self.modes.kappa * self.alpha,
                       self.modes)
 
     def __call__(self, tau):
