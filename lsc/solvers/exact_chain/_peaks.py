@@ -140,9 +140,10 @@ def _peaks(records, K: int, passes):
         vals = (c0[idx][:, :, None] + A[idx] @ np.swapaxes(S, 1, 2)
                 + G[idx] @ np.swapaxes(C, 1, 2))
         acc = vals[:, K:]
-        pick = np.argmax(np.abs(acc), axis=2)[:, :, None]
-        for j, force, a in zip(idx, vals[:, :K].max(axis=2),
-                               np.take_along_axis(acc, pick, axis=2)[:, :, 0]):
+        # (np.max and take_along_axis as the reductions and the index they wrap)
+        pick = acc[np.arange(len(idx))[:, None], np.arange(acc.shape[1])[None, :],
+                   np.argmax(np.abs(acc), axis=2)]
+        for j, force, a in zip(idx, np.maximum.reduce(vals[:, :K], axis=2), pick):
             out[j] = (force, a)
     return out
 
@@ -182,7 +183,7 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hy
     unclear = (change | (np.minimum(np.abs(left), np.abs(right)) <= margin)) & valid
     # a derivative within rounding of zero at the start: searched from where it provably
     # keeps a sign (its first derivative clear of rounding, with a bound on the next)
-    rounding = np.abs(alpha).sum(axis=1)
+    rounding = np.add.reduce(np.abs(alpha), axis=1)
     start = np.zeros(seg.size)
     for r in np.flatnonzero(np.abs(dc) <= 64 * _EPS * rounding).tolist():
         d = Series(float(dc[r]), da[r], dg[r], shapes[seg[r]].modes)

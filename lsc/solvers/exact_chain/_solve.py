@@ -93,7 +93,9 @@ class _Chain:
         self.gap = np.asarray(p["gap"], float)
         self.C = deformation_map(self.N)
         self.incidence = -self.C.T
-        self.t_scale = model.time_scale()
+        # (Python floats, the same numbers: the scalar arithmetic of every segment's search
+        # is several times cheaper on them than on NumPy's scalars)
+        self.t_scale = float(model.time_scale())
         self.length = model.v_scale * self.t_scale
         self.records = []   # (t0, motion, force at the start, length, loading contacts)
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
@@ -245,7 +247,8 @@ class _Ends(dict):
         self.segments, self.k = segments, k
 
     def __missing__(self, name):
-        value = self[name] = np.repeat([s.disc[self.k][name] for s in self.segments], 2)
+        k = self.k   # (each segment's value twice, as np.repeat(values, 2) gives them)
+        value = self[name] = np.array([v for s in self.segments for v in (s.disc[k][name],) * 2])
         return value
 
 
