@@ -19,7 +19,7 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
-from ...locking import lock_warnings
+from ...locking import FEATURE as LOCK, lock_warnings, locking_model
 from . import _locks
 from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
@@ -73,13 +73,12 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    from ...locking import lock_features, locking_model
-
     fast = _ScalarTransitions(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
-    # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions)
-    return LockTransitions(fast, locking_model(model)) if lock_features(model) else fast
+    # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions;
+    # the model's features, kept on it, name it: lsc.locking.lock_features)
+    return LockTransitions(fast, locking_model(model)) if LOCK in model.features() else fast
 
 
 class _Chain:
