@@ -161,11 +161,12 @@ class Series:
 
     def _modal(self) -> list:
         """``[(kind, ω_j, α_j, γ_j, κ_j)]`` as Python floats (for one time at a time)."""
-        if not hasattr(self, "_coef"):
-            self._coef = [(kind, w, a, g, k) for (kind, w), a, g, k in
-                          zip(self.modes._kinds, self.alpha.tolist(), self.gamma.tolist(),
-                              self.modes._kappa)]
-        return self._coef
+        coef = self.__dict__.get("_coef")   # (no AttributeError raised on the first call)
+        if coef is None:
+            coef = self._coef = [(kind, w, a, g, k) for (kind, w), a, g, k in
+                                 zip(self.modes._kinds, self.alpha.tolist(),
+                                     self.gamma.tolist(), self.modes._kappa)]
+        return coef
 
     def with_slope(self, tau):
         """``(g(τ), g'(τ))`` at one time ``tau`` [s] (or at times, 1-d), from one evaluation of
@@ -323,7 +324,8 @@ class Motion:
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
-        if np.ndim(tau) == 0:   # (one time: the modal terms on Python floats, same arithmetic)
+        if isinstance(tau, float) or np.ndim(tau) == 0:   # (one time: the modal terms on
+            # Python floats, same arithmetic)
             S, C = self.modes.basis_at(float(tau))
             a, b = self.a.tolist(), self.b.tolist()
             q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
