@@ -145,8 +145,8 @@ class Series:
 
     def derivative(self) -> "Series":
         """``g'``: ``S' = 1 - κ C``, ``C' = S``."""
-        return Series(float(np.add.reduce(self.alpha)), self.gamma, -self.modes.kappa * self.alpha,
-                      self.modes)
+        return Series(float(np.add.reduce(self.alpha)), self.gamma,
+                      -self.modes.kappa * self.alpha, self.modes)
 
     def __call__(self, tau):
         """``g`` at times ``tau`` (a scalar, or 1-d)."""

@@ -173,7 +173,8 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hy
     grid = np.minimum(step[:, None] * (first[:, None] + np.arange(top + 1.0)), Tw[:, None])
     ends = first + count == total
     grid[np.flatnonzero(ends), count[ends]] = Tw[ends]
-    Sg, Cg = basis_of(kind[segs][:, None, :], w[segs][:, None, :], grid, hyper)   # (W, top + 1, n)
+    Sg, Cg = basis_of(kind[segs][:, None, :], w[segs][:, None, :], grid,
+                      hyper)   # (W, top + 1, n)
     dv = dc[:, None] + (Sg[win] @ da[:, :, None])[..., 0] + (Cg[win] @ dg[:, :, None])[..., 0]
     bound = _curvature_bounds(k_seg, kind[seg], w[seg], da, dg, T[seg], hyper)
     margin = (bound * step[win] ** 2 / 8.0)[:, None]
