@@ -114,19 +114,15 @@ class HybridModel:
         """Everything this scene uses that a backend must solve (its contract,
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
         ...), each effect's ``feature`` (``effect:brake``, ...), ``gap:open`` for initial gaps,
-        and ``contact:lock`` where a pair may lock (:func:`lsc.locking.lock_features`).
-        Computed once (a model is read-only once built; every solve checks it)."""
-        got = self.__dict__.get("_features")
-        if got is None:
+        and ``contact:lock`` where a pair may lock (:func:`lsc.locking.lock_features`); once."""
+        if "_features" not in self.__dict__:   # (a model is read-only once built)
             from .locking import lock_features   # (lsc.locking builds on this module)
-            out = set(lock_features(self))
-            for law in self.laws:
-                out |= law.features()
+            out = set(lock_features(self)).union(*(law.features() for law in self.laws))
             out |= {part.feature for part in (*self.brakes, *self.failures)}
             if np.any(np.asarray(self.params["gap"], float) > 0):
                 out.add("gap:open")
-            got = self.__dict__["_features"] = frozenset(out)
-        return got
+            self.__dict__["_features"] = frozenset(out)
+        return self.__dict__["_features"]
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):
@@ -362,14 +358,8 @@ class HybridModel:
         """A rough contact time [s] from the stiffest slope and the lightest pair (``slowest``:
         from the softest slope and the heaviest pair; ``loading``: leaving out the IF-D laws'
         unloading stiffnesses, for a motion with no contact unloading). Slopes that are zero or
-        not finite are left out; with none left the slope is 1. (The model's own, on NumPy:
-        computed once for each ``slowest, loading``.)"""
-        if p is None and xp is np:
-            kept = self.__dict__.setdefault("_time_scales", {})
-            got = kept.get((slowest, loading))
-            if got is None:
-                got = kept[(slowest, loading)] = self.time_scale(slowest, loading, self.params)
-            return got
+        not finite are left out; with none left the slope is 1."""
+        p = self.params if p is None else p
         mus = self._mu(p, xp)
         mu = mus.max(axis=-1) if slowest else mus.min(axis=-1)
         s = self._slopes(p, ("ls", "k") if loading else ("ls", "su", "k"), xp)

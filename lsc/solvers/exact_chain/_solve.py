@@ -92,9 +92,11 @@ class _Chain:
         self.gap = np.asarray(p["gap"], float)
         self.C = deformation_map(self.N)
         self.incidence = -self.C.T
-        # (Python floats, the same numbers: the scalar arithmetic of every segment's search
-        # is several times cheaper on them than on NumPy's scalars)
-        self.t_scale = float(model.time_scale())
+        # (a Python float, the same number, kept on the model: the scalar arithmetic of every
+        # segment's search is several times cheaper on floats than on NumPy's scalars)
+        self.t_scale = model.__dict__.get("_chain_time_scale")
+        if self.t_scale is None:
+            self.t_scale = model.__dict__["_chain_time_scale"] = float(model.time_scale())
         self.length = model.v_scale * self.t_scale
         self.records = []   # (t0, motion, force at the start, length, loading contacts)
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
