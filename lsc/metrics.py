@@ -139,8 +139,10 @@ def in_g(acceleration, g, xp=np):
 
 def _sides(x, pad, xp):
     """(rear, front) (..., N) of per-contact values ``x`` (..., K): each vehicle's rear
-    contact's and front contact's (``pad`` (..., 1) where it has none)."""
-    return xp.concatenate([pad, x], axis=-1), xp.concatenate([x, pad], axis=-1)
+    contact's and front contact's (``pad`` (..., 1) where it has none): two views of one
+    padded array."""
+    both = xp.concatenate([pad, x, pad], axis=-1)
+    return both[..., :-1], both[..., 1:]
 
 
 def simultaneous_touch(ct, end, pushed, xp=np):

@@ -114,15 +114,15 @@ class HybridModel:
         """Everything this scene uses that a backend must solve (its contract,
         :class:`lsc.solvers.base.Backend`): each contact law's (``law:ifd``, ``loading:table``,
         ...), each effect's ``feature`` (``effect:brake``, ...), ``gap:open`` for initial gaps,
-        and ``contact:lock`` where a pair may lock (:func:`lsc.locking.lock_features`)."""
-        from .locking import lock_features   # (lsc.locking builds on this module)
-        out = set(lock_features(self))
-        for law in self.laws:
-            out |= law.features()
-        out |= {part.feature for part in (*self.brakes, *self.failures)}
-        if np.any(np.asarray(self.params["gap"], float) > 0):
-            out.add("gap:open")
-        return frozenset(out)
+        and ``contact:lock`` where a pair may lock (:func:`lsc.locking.lock_features`); once."""
+        if "_features" not in self.__dict__:   # (a model is read-only once built)
+            from .locking import lock_features   # (lsc.locking builds on this module)
+            out = set(lock_features(self)).union(*(law.features() for law in self.laws))
+            out |= {part.feature for part in (*self.brakes, *self.failures)}
+            if np.any(np.asarray(self.params["gap"], float) > 0):
+                out.add("gap:open")
+            self.__dict__["_features"] = frozenset(out)
+        return self.__dict__["_features"]
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, y, p, xp=np):

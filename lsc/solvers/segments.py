@@ -95,7 +95,9 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
             raise SimulationError(
                 f"no event before t = {t:.6g} s although the crash is not over: the contact "
                 "never separates (check the unloading branch)")
-        new = model.to_python(model.apply_event(step.event, t, y, disc, model.params))
+        # (the parts the event left alone keep their dicts, already on Python scalars)
+        new = [st if st is was else model.to_python([st])[0] for st, was in
+               zip(model.apply_event(step.event, t, y, disc, model.params), disc)]
         name = model.event_name(step.event, disc, new)
         events.append(Event(t, name, model.event_index(step.event)))
         # (a locked pair released by another part's event: lsc.locking)

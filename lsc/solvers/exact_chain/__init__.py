@@ -19,6 +19,9 @@ first use.
 
 from __future__ import annotations
 
+import importlib
+import sys
+
 from ..base import Backend
 
 __all__ = ["BACKEND", "solve", "solve_batch"]
@@ -35,14 +38,16 @@ BACKEND = Backend(
     # auto picks it for every chain it declares (exact, and many times faster than SciPy)
     auto=True)
 
+#: The module each lazily imported name comes from.
+_LAZY = {"solve": "_solve", "solve_batch": "_batch"}
+
 
 def __getattr__(name):
-    if name == "solve":
-        from ._solve import solve
-
-        return solve
-    if name == "solve_batch":
-        from ._batch import solve_batch
-
-        return solve_batch
+    # (read from its module every time, so that a patched one is seen; once imported, looked
+    # up in sys.modules rather than through the import statement: a solve asks every time)
+    if name in _LAZY:
+        module = sys.modules.get(f"{__name__}.{_LAZY[name]}")
+        if module is None:
+            module = importlib.import_module(f".{_LAZY[name]}", __name__)
+        return getattr(module, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -27,6 +27,7 @@ bound on ``|g''|`` over an interval in closed form.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -35,11 +36,13 @@ import numpy as np
 __all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
 
 
+@functools.lru_cache(maxsize=64)
 def deformation_map(N: int) -> np.ndarray:
-    """``C`` (N-1, N): ``D_k = x_k - x_{k+1} - gap_k``."""
+    """``C`` (N-1, N): ``D_k = x_k - x_{k+1} - gap_k`` (built once per ``N``, read-only)."""
     C = np.zeros((N - 1, N))
     C[np.arange(N - 1), np.arange(N - 1)] = 1.0
     C[np.arange(N - 1), np.arange(1, N)] = -1.0
+    C.flags.writeable = False
     return C
 
 
@@ -113,7 +116,8 @@ class Modes:
         (harmonic and rigid modes) and ``S <= sinh(λT)/λ``, ``S' <= cosh(λT)`` (hyperbolic)."""
         s_max = np.minimum(T, self._inv_w)
         if not self.neg.size:
-            return np.abs(alpha * self.kappa) @ s_max + np.abs(gamma).sum(axis=-1)
+            # (np.add.reduce: the sum np.sum computes, without its Python wrapper)
+            return np.abs(alpha * self.kappa) @ s_max + np.add.reduce(np.abs(gamma), axis=-1)
         ds_max = np.ones_like(s_max)
         w = self.w[self.neg]
         with np.errstate(over="ignore"):
@@ -141,8 +145,8 @@ class Series:
 
     def derivative(self) -> "Series":
         """``g'``: ``S' = 1 - κ C``, ``C' = S``."""
-        return Series(float(np.sum(self.alpha)), self.gamma, -self.modes.kappa * self.alpha,
-                      self.modes)
+        return Series(float(np.add.reduce(self.alpha)), self.gamma,
+                      -self.modes.kappa * self.alpha, self.modes)
 
     def __call__(self, tau):
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
@@ -157,11 +161,12 @@ class Series:
 
     def _modal(self) -> list:
         """``[(kind, ω_j, α_j, γ_j, κ_j)]`` as Python floats (for one time at a time)."""
-        if not hasattr(self, "_coef"):
-            self._coef = [(kind, w, a, g, k) for (kind, w), a, g, k in
-                          zip(self.modes._kinds, self.alpha.tolist(), self.gamma.tolist(),
-                              self.modes._kappa)]
-        return self._coef
+        coef = self.__dict__.get("_coef")   # (no AttributeError raised on the first call)
+        if coef is None:
+            coef = self._coef = [(kind, w, a, g, k) for (kind, w), a, g, k in
+                                 zip(self.modes._kinds, self.alpha.tolist(),
+                                     self.gamma.tolist(), self.modes._kappa)]
+        return coef
 
     def with_slope(self, tau):
         """``(g(τ), g'(τ))`` at one time ``tau`` [s] (or at times, 1-d), from one evaluation of
@@ -319,7 +324,8 @@ class Motion:
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
-        if np.ndim(tau) == 0:   # (one time: the modal terms on Python floats, same arithmetic)
+        if isinstance(tau, float) or np.ndim(tau) == 0:   # (one time: the modal terms on
+            # Python floats, same arithmetic)
             S, C = self.modes.basis_at(float(tau))
             a, b = self.a.tolist(), self.b.tolist()
             q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]

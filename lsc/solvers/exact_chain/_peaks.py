@@ -36,21 +36,25 @@ __all__ = ["segment_peaks", "basis_of"]
 _EPS = float(np.finfo(float).eps)
 
 
-def basis_of(kind, w, tau):
+def basis_of(kind, w, tau, hyperbolic=None):
     """``S, C`` (..., n) at times ``tau`` (...) [s] for modes of kind ``kind`` (..., n) (1
     harmonic, 0 rigid, -1 hyperbolic) and ``w = sqrt|κ|`` (..., n) [1/s], each row on its own
-    modes, from half angles as :meth:`~._modes.Modes.basis` computes them."""
+    modes, from half angles as :meth:`~._modes.Modes.basis` computes them. ``hyperbolic``:
+    whether ``kind`` holds a hyperbolic mode, if the caller knows."""
     tau = np.asarray(tau, float)[..., None]
     ws = np.where(kind != 0, w, 1.0)
     h = (0.5 * ws) * tau
-    if (kind < 0).any():
+    if hyperbolic is None:
+        hyperbolic = bool(np.less(kind, 0).any())
+    if hyperbolic:
         with np.errstate(over="ignore", invalid="ignore"):
             hyper = kind < 0
             s = np.where(hyper, np.sinh(h), np.sin(h))
             c = np.where(hyper, np.cosh(h), np.cos(h))
-    else:
+            sw = s / ws   # (inf / inf where sinh and cosh overflow)
+            S, C = 2.0 * sw * c, 2.0 * sw * sw
+    else:   # (finite values over ws > 0: nothing to silence)
         s, c = np.sin(h), np.cos(h)
-    with np.errstate(invalid="ignore"):
         sw = s / ws
         S, C = 2.0 * sw * c, 2.0 * sw * sw
     rigid = kind == 0
@@ -119,10 +123,11 @@ def _peaks(records, K: int, passes):
     kappa = np.array([s.modes.kappa for s in shapes])                   # (S, n)
     w = np.array([s.modes.w for s in shapes])
     kind = np.sign(kappa).astype(int)
+    hyper = any(s.modes.neg.size for s in shapes)   # (a falling table piece's mode)
     T = np.array([float(tau) for _, _, tau, _ in records])
     times = [[] for _ in records]
     for windows in passes:
-        _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times)
+        _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hyper)
     out = [None] * len(records)
     # (every quantity at every time found in its segment and at both ends; the segments with
     # few times together)
@@ -131,21 +136,23 @@ def _peaks(records, K: int, passes):
         width = max(n for _, _, n in group)
         tt = np.array([[0.0, float(T[j])] + times[j] + [0.0] * (width - 2 - len(times[j]))
                        for j in idx])
-        S, C = basis_of(kind[idx][:, None, :], w[idx][:, None, :], tt)     # (g, P, n)
+        S, C = basis_of(kind[idx][:, None, :], w[idx][:, None, :], tt, hyper)     # (g, P, n)
         vals = (c0[idx][:, :, None] + A[idx] @ np.swapaxes(S, 1, 2)
                 + G[idx] @ np.swapaxes(C, 1, 2))
         acc = vals[:, K:]
-        pick = np.argmax(np.abs(acc), axis=2)[:, :, None]
-        for j, force, a in zip(idx, vals[:, :K].max(axis=2),
-                               np.take_along_axis(acc, pick, axis=2)[:, :, 0]):
+        # (np.max and take_along_axis as the reductions and the index they wrap)
+        pick = acc[np.arange(len(idx))[:, None], np.arange(acc.shape[1])[None, :],
+                   np.argmax(np.abs(acc), axis=2)]
+        for j, force, a in zip(idx, np.maximum.reduce(vals[:, :K], axis=2), pick):
             out[j] = (force, a)
     return out
 
 
-def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times):
+def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hyper=None):
     """Add to ``times`` (a list per segment) the times inside each window ``(segment, first
     interval, number of intervals, the segment's intervals)`` of ``windows`` where a searched quantity may have an
-    extreme value (the zeros of its derivative, or the ends of intervals where it is flat)."""
+    extreme value (the zeros of its derivative, or the ends of intervals where it is flat);
+    ``hyper``: whether some mode is hyperbolic (:func:`basis_of`)."""
     # (a segment of no length has no interior; a constant derivative is searched harmlessly)
     which = [[q for q in shapes[j].searched.tolist() if q not in records[j][3]]
              if records[j][2] > 0 else [] for j, _, _, _ in windows]
@@ -166,9 +173,10 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times):
     grid = np.minimum(step[:, None] * (first[:, None] + np.arange(top + 1.0)), Tw[:, None])
     ends = first + count == total
     grid[np.flatnonzero(ends), count[ends]] = Tw[ends]
-    Sg, Cg = basis_of(kind[segs][:, None, :], w[segs][:, None, :], grid)   # (W, top + 1, n)
+    Sg, Cg = basis_of(kind[segs][:, None, :], w[segs][:, None, :], grid,
+                      hyper)   # (W, top + 1, n)
     dv = dc[:, None] + (Sg[win] @ da[:, :, None])[..., 0] + (Cg[win] @ dg[:, :, None])[..., 0]
-    bound = _curvature_bounds(k_seg, kind[seg], w[seg], da, dg, T[seg])
+    bound = _curvature_bounds(k_seg, kind[seg], w[seg], da, dg, T[seg], hyper)
     margin = (bound * step[win] ** 2 / 8.0)[:, None]
     left, right = dv[:, :-1], dv[:, 1:]
     change = left * right <= 0
@@ -176,7 +184,7 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times):
     unclear = (change | (np.minimum(np.abs(left), np.abs(right)) <= margin)) & valid
     # a derivative within rounding of zero at the start: searched from where it provably
     # keeps a sign (its first derivative clear of rounding, with a bound on the next)
-    rounding = np.abs(alpha).sum(axis=1)
+    rounding = np.add.reduce(np.abs(alpha), axis=1)
     start = np.zeros(seg.size)
     for r in np.flatnonzero(np.abs(dc) <= 64 * _EPS * rounding).tolist():
         d = Series(float(dc[r]), da[r], dg[r], shapes[seg[r]].modes)
@@ -187,7 +195,7 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times):
     plain = unclear & change & (left != right) & (a_t >= start[:, None])
     r, i = np.nonzero(plain)
     if r.size > MANY:
-        d = _Rows(dc[r], da[r], dg[r], kind[seg[r]], w[seg[r]], kappa[seg[r]])
+        d = _Rows(dc[r], da[r], dg[r], kind[seg[r]], w[seg[r]], kappa[seg[r]], hyper)
         found = _refine_many(d, a_t[r, i], b_t[r, i], left[r, i], right[r, i]).tolist()
     else:   # (a few: one at a time on Python floats, cheaper than NumPy on a few values)
         found = [_refine(Series(float(dc[j]), da[j], dg[j], shapes[seg[j]].modes), *ab)
@@ -220,14 +228,15 @@ def _one_by_one(rest, seg, q, A, G, *, shapes, records, dc, da, dg, bound, start
             times[s] += _sign_changes(d, a, float(b_t[r, i]), fa, float(right[r, i]), B, flat)
 
 
-def _curvature_bounds(kappa, kind, w, alpha, gamma, T):
+def _curvature_bounds(kappa, kind, w, alpha, gamma, T, hyper=None):
     """Bounds on ``|g''|`` (R,) over ``[0, T]`` (R,) of series of coefficients ``alpha, gamma``
     (R, n), each on its own modes (as :meth:`~._modes.Modes.curvature_bounds`: ``|S| <=
     min(T, 1/ω)``, ``|S'| <= 1``, or ``sinh(λT)/λ``, ``cosh(λT)`` on a hyperbolic mode)."""
     harmonic = kind > 0
     s_max = np.minimum(T[:, None], 1.0 / np.where(harmonic, w, 0.5 / T[:, None]))
-    if not (kind < 0).any():
-        return (np.abs(alpha * kappa) * s_max).sum(axis=1) + np.abs(gamma).sum(axis=1)
+    if not (bool(np.less(kind, 0).any()) if hyper is None else hyper):
+        return (np.add.reduce(np.abs(alpha * kappa) * s_max, axis=1)
+                + np.add.reduce(np.abs(gamma), axis=1))
     hyper = kind < 0
     ws = np.where(hyper, w, 1.0)
     with np.errstate(over="ignore"):
@@ -240,12 +249,13 @@ class _Rows:
     """Series ``c + Σ α S + γ C`` (rows), each on its own modes, for
     :func:`~._roots._refine_many` (all brackets at once)."""
 
-    def __init__(self, c, alpha, gamma, kind, w, kappa):
+    def __init__(self, c, alpha, gamma, kind, w, kappa, hyper=None):
         self.c, self.alpha, self.gamma, self.kind, self.w = c, alpha, gamma, kind, w
+        self.hyper = hyper
         self.slope0, self.k_alpha = alpha.sum(axis=1), kappa * alpha
 
     def with_slope(self, t):
         """``(g(t), g'(t))`` (rows,) at one time per row ``t`` [s]."""
-        S, C = basis_of(self.kind, self.w, t)
+        S, C = basis_of(self.kind, self.w, t, self.hyper)
         return (self.c + (S * self.alpha).sum(axis=1) + (C * self.gamma).sum(axis=1),
                 self.slope0 - (C * self.k_alpha).sum(axis=1) + (S * self.gamma).sum(axis=1))

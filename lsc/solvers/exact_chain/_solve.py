@@ -19,7 +19,7 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
-from ...locking import lock_warnings
+from ...locking import FEATURE as LOCK, lock_warnings, locking_model
 from . import _locks
 from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
@@ -73,13 +73,12 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    from ...locking import lock_features, locking_model
-
     fast = _ScalarTransitions(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
-    # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions)
-    return LockTransitions(fast, locking_model(model)) if lock_features(model) else fast
+    # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions;
+    # the model's features, kept on it, name it: lsc.locking.lock_features)
+    return LockTransitions(fast, locking_model(model)) if LOCK in model.features() else fast
 
 
 class _Chain:
@@ -93,7 +92,11 @@ class _Chain:
         self.gap = np.asarray(p["gap"], float)
         self.C = deformation_map(self.N)
         self.incidence = -self.C.T
-        self.t_scale = model.time_scale()
+        # (a Python float, the same number, kept on the model: the scalar arithmetic of every
+        # segment's search is several times cheaper on floats than on NumPy's scalars)
+        self.t_scale = model.__dict__.get("_chain_time_scale")
+        if self.t_scale is None:
+            self.t_scale = model.__dict__["_chain_time_scale"] = float(model.time_scale())
         self.length = model.v_scale * self.t_scale
         self.records = []   # (t0, motion, force at the start, length, loading contacts)
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
@@ -245,7 +248,8 @@ class _Ends(dict):
         self.segments, self.k = segments, k
 
     def __missing__(self, name):
-        value = self[name] = np.repeat([s.disc[self.k][name] for s in self.segments], 2)
+        k = self.k   # (each segment's value twice, as np.repeat(values, 2) gives them)
+        value = self[name] = np.array([v for s in self.segments for v in (s.disc[k][name],) * 2])
         return value
 
 
