@@ -49,7 +49,12 @@ is ``e`` times the last: ``0.05^8 = 4e-11`` of the first, below the integrators'
 and few enough that a chattering chain locks within a few dozen events.
 
 Exact-chain locks by the same rules on its exact motion (:mod:`lsc.solvers.exact_chain._locks`:
-the reduced system of the clusters in closed form); diffrax refuses a scene with the feature.
+the reduced system of the clusters in closed form). Diffrax runs the same transitions inside its
+compiled loop (``xp = jax.numpy``): each condition on the discrete state is then traced, and
+both branches are evaluated and selected field by field (:mod:`lsc.lock_law`), where on NumPy
+only the branch taken runs, the same operations as a plain ``if`` (SciPy's and exact-chain's
+numbers are those of the branching code). Its batch path hands the members whose pairs may lock
+to its single solve (:func:`lock_members`).
 """
 
 from __future__ import annotations
@@ -57,13 +62,14 @@ from __future__ import annotations
 import numpy as np
 
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
-from .laws._common import select
 from .laws.hysteresis import _lazy
+from .lock_law import cluster_forces, clusters, if_, locked_forces, none, not_, pick
 from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
            "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
-           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces", "hold_force"]
+           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces", "locked_forces",
+           "hold_force"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
@@ -95,37 +101,6 @@ def may_lock(model, k: int, p=None, below: float = WATCH_RESTITUTION):
     boolean where they are traced)."""
     p = model.params if p is None else p
     return model.laws[k].unload_kind == "restitution" and (p["contacts"][k]["e"] < below)
-
-
-def _concrete(c) -> bool:
-    """Whether the condition ``c`` is known now (a Python or NumPy boolean), not traced."""
-    return isinstance(c, (bool, np.bool_)) or (isinstance(c, np.ndarray) and c.ndim == 0)
-
-
-def _not(c):
-    return (not c) if _concrete(c) else ~c
-
-
-def _pick(c, a, b, xp):
-    """``a`` where ``c`` else ``b``: the one taken where ``c`` is known now."""
-    if _concrete(c):
-        return a if c else b
-    return xp.where(c, a, b)
-
-
-def _if(c, a, b, xp) -> list:
-    """The discrete state ``a()`` where ``c`` else ``b()`` (thunks): only the one taken where
-    ``c`` is known now (NumPy: the same operations as a plain ``if``); both, then selected field
-    by field, where it is traced (an entry the two share is kept as it is)."""
-    if _concrete(c):
-        return a() if c else b()
-    A, B = a(), b()
-    return [x if x is y else select(c, x, y, xp) for x, y in zip(A, B)]
-
-
-def _none(mask) -> bool:
-    """Whether the lock mask ``mask`` is known to hold no lock."""
-    return all(_concrete(c) and not c for c in mask)
 
 
 def lock_members(model, p) -> np.ndarray:
@@ -168,7 +143,7 @@ def closing_step(w: int, was: dict, now: dict):
     if w == 1:
         close = ((mb == MODE_OPEN) & (ma != MODE_OPEN)) | (
             (mb == MODE_UNLOADING) & (ma == MODE_LOADING))
-    return close, _not(close) & (ma == MODE_OPEN) & (mb != MODE_OPEN)
+    return close, not_(close) & (ma == MODE_OPEN) & (mb != MODE_OPEN)
 
 
 def recount(close, pressed, count, mode_after, xp=np) -> tuple:
@@ -176,11 +151,11 @@ def recount(close, pressed, count, mode_after, xp=np) -> tuple:
     a closing while pressed counts; a separation while not pressed starts again. ``watch``: 0
     (none), 1 (lock at the next turning point on the line), 2 (lock at the next max
     deformation)."""
-    closed = count + _pick(pressed, 1.0, 0.0, xp)
-    watch = _pick(closed < CHATTER_CLOSINGS, 0.0,
-                  _pick(mode_after == MODE_UNLOADING, 1.0, 2.0, xp), xp)
-    return (_pick(close, closed, _pick(pressed, count, 0.0, xp), xp),
-            _pick(close, watch, 0.0, xp))
+    closed = count + pick(pressed, 1.0, 0.0, xp)
+    watch = pick(closed < CHATTER_CLOSINGS, 0.0,
+                  pick(mode_after == MODE_UNLOADING, 1.0, 2.0, xp), xp)
+    return (pick(close, closed, pick(pressed, count, 0.0, xp), xp),
+            pick(close, watch, 0.0, xp))
 
 
 class LockPart:
@@ -225,9 +200,9 @@ class LockPart:
     def events(force, closing_rate, st, xp=np) -> list:
         """``[F_k, F_top - F_k, dD/dt]`` where armed (1 where not)."""
         on = st["mode"] != 0
-        watch = (st["watch"] == 1.0) & _not(on)
-        return [_pick(on, force, 1.0, xp), _pick(on, st["ftop"] - force, 1.0, xp),
-                _pick(watch, closing_rate, 1.0, xp)]
+        watch = (st["watch"] == 1.0) & not_(on)
+        return [pick(on, force, 1.0, xp), pick(on, st["ftop"] - force, 1.0, xp),
+                pick(watch, closing_rate, 1.0, xp)]
 
     @staticmethod
     def locked(st, law_state: dict, ftop, D, kind: int) -> dict:
@@ -243,88 +218,6 @@ class LockPart:
         whole = ("mode", "seg", "status") if xp is np else ()
         return {key[4:]: (int(val) if key[4:] in whole else val)
                 for key, val in st.items() if key.startswith("law_")}
-
-
-def clusters(locked, N: int) -> list[tuple[int, int]]:
-    """The vehicle ranges ``(a, b)`` (inclusive) joined by the locked contacts ``locked``."""
-    out = []
-    for k in sorted(locked):
-        if out and out[-1][1] == k:
-            out[-1] = (out[-1][0], k + 1)
-        else:
-            out.append((k, k + 1))
-    return out
-
-
-def _link(mass, rear, left, right):
-    """A locked contact's force and its cluster's acceleration (the module: ``M``, ``M_rear``,
-    ``F_L``, ``F_R``)."""
-    return ((mass - rear) * left + rear * right) / mass, (left - right) / mass
-
-
-def cluster_forces(F, m, groups, K: int):
-    """The contact forces (K, ...) with each locked contact's force from its cluster's motion,
-    and each cluster's acceleration: ``[(a, b, accel)]``. ``F``: the contact forces (K, ...)
-    [force] (the locked contacts' rows are replaced); ``m`` (N,) [mass]."""
-    rows = list(F)
-    accels = []
-    for a, b in groups:
-        left = F[a - 1] if a > 0 else 0.0 * F[0]
-        right = F[b] if b < K else 0.0 * F[0]
-        mass = float(np.sum(m[a:b + 1]))
-        rear = 0.0
-        for k in range(a, b):
-            rear += float(m[k])
-            rows[k] = _link(mass, rear, left, right)[0]
-        accels.append((a, b, _link(mass, 0.0, left, right)[1]))
-    return rows, accels
-
-
-def locked_forces(F, m, mask, K: int, xp=np):
-    """:func:`cluster_forces` for the locked contacts where ``mask`` (K booleans, traced or
-    not) is true: ``(rows, join)``, the contact forces (K) and ``join(a)``, the accelerations
-    ``a`` (N) with each cluster's vehicles at its one acceleration. A traced mask: each
-    contact's cluster bounds as traced indices, its masses summed in chain order (as
-    :func:`cluster_forces`)."""
-    if all(_concrete(c) for c in mask):
-        rows, accels = cluster_forces(F, m, clusters([k for k in range(K) if mask[k]], K + 1),
-                                      K)
-
-        def join(a):
-            acc = list(a)
-            for lo, hi, shared in accels:
-                acc[lo:hi + 1] = [shared] * (hi + 1 - lo)
-            return acc
-        return rows, join
-    zero = 0.0 * F[0]
-    ext = [zero, *F, zero]   # (ext[j + 1]: contact j)
-    rows, shared = list(F), []
-    for k in range(K):
-        lo, hi, run = k, k + 1, True   # (its cluster: vehicles lo..hi)
-        for j in range(k - 1, -1, -1):
-            run = run & mask[j]
-            lo = xp.where(run, j, lo)
-        run = True
-        for j in range(k + 1, K):
-            run = run & mask[j]
-            hi = xp.where(run, j + 1, hi)
-        left, right, mass, rear = zero, zero, 0.0, 0.0
-        for j in range(K + 1):
-            left = xp.where(lo == j, ext[j], left) if j <= k else left
-            right = xp.where(hi == j, ext[j + 1], right) if j > k else right
-            mass = mass + xp.where((lo <= j) & (j <= hi), m[j], 0.0)
-            rear = rear + xp.where(lo <= j, m[j], 0.0) if j <= k else rear
-        row, accel = _link(mass, rear, left, right)
-        rows[k] = xp.where(mask[k], row, F[k])
-        shared.append(accel)
-
-    def join(a):
-        acc = list(a)
-        for i in range(K + 1):
-            inner = xp.where(mask[i - 1], shared[i - 1], a[i]) if i > 0 else a[i]
-            acc[i] = xp.where(mask[i], shared[i], inner) if i < K else inner
-        return acc
-    return rows, join
 
 
 class LockingModel(HybridModel):
@@ -349,7 +242,7 @@ class LockingModel(HybridModel):
         (:func:`locked_forces`)."""
         F = self._law_forces(y, disc, p, xp)
         mask = self._mask(disc)
-        if _none(mask):
+        if none(mask):
             return F
         return xp.asarray(locked_forces(F, p["m"], mask, self.K, xp)[0])
 
@@ -361,7 +254,7 @@ class LockingModel(HybridModel):
         """As the plain model's, each vehicle of a cluster at the cluster's one acceleration
         (exactly: no rounding may open the held deformation)."""
         mask = self._mask(disc)
-        if _none(mask):
+        if none(mask):
             return super().accelerations(y, disc, p, xp)
         # (can_lock: no brake; the forces and the shared accelerations from one pass)
         rows, join = locked_forces(self._law_forces(y, disc, p, xp), p["m"], mask, self.K, xp)
@@ -453,7 +346,7 @@ class LockingModel(HybridModel):
         j, w = self.events[i]
         off = self._lock_offset
         if j < self.K:
-            new = _if(may_lock(self, j, p), lambda: self._law_event(j, w, y, before[j], new, p,
+            new = if_(may_lock(self, j, p), lambda: self._law_event(j, w, y, before[j], new, p,
                                                                     xp), lambda: new, xp)
         elif j >= off:
             k = j - off
@@ -466,7 +359,7 @@ class LockingModel(HybridModel):
                     D, _ = self.deformation(y, p, xp)
                     ftop = self.laws[k].force(D[k], 0.0, st)
                     return self._try_lock(k, y, new, p, st, st, ftop, 1, xp)
-                new = _if(st["mode"] == MODE_UNLOADING, lock, lambda: new, xp)
+                new = if_(st["mode"] == MODE_UNLOADING, lock, lambda: new, xp)
             else:
                 new = self._release(k, w == 1, y, new, p, xp)
         return self.settle(y, new, p, xp) if settle else new
@@ -487,11 +380,11 @@ class LockingModel(HybridModel):
                 D, _ = self.deformation(y, p, xp)
                 ftop = self.laws[k].force(D[k], 0.0, was)
                 return self._try_lock(k, y, new, p, was, now, ftop, 0, xp)
-            tried = _if(at_max, lock_at_max, lambda: new, xp)
+            tried = if_(at_max, lock_at_max, lambda: new, xp)
             locked_now = at_max & (tried[off + k]["mode"] != 0)
             # (not pressed: the turning point passed; a line too stiff to resolve is watched
             # from the start, its turning points lock where pressed)
-            lock = _lazy(at_max, lambda: dict(lock, watch=_pick(
+            lock = _lazy(at_max, lambda: dict(lock, watch=pick(
                 now["mode"] == MODE_UNLOADING, 1.0, 0.0, xp)), lambda: lock, xp)
         close, opened = closing_step(w, was, now)
 
@@ -502,7 +395,7 @@ class LockingModel(HybridModel):
         lock = _lazy(close | opened, counted, lambda: lock, xp)
         out = list(new)
         out[off + k] = lock
-        return _if(locked_now, lambda: tried, lambda: out, xp)
+        return if_(locked_now, lambda: tried, lambda: out, xp)
 
     def _try_lock(self, k, y, new, p, saved, records, ftop, kind, xp=np):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
@@ -518,7 +411,7 @@ class LockingModel(HybridModel):
             off = self._lock_offset
             out[off + k] = LockPart.locked(new[off + k], saved, ftop, D[k], kind)
             return out
-        return _if((0.0 < force) & (force < ftop), lock, lambda: new, xp)
+        return if_((0.0 < force) & (force < ftop), lock, lambda: new, xp)
 
     def _release(self, k, high, y, new, p, xp=np):
         """``new`` with contact ``k``'s lock released: onto the law's saved state (reloading
@@ -534,7 +427,7 @@ class LockingModel(HybridModel):
             st = self.laws[k].on_event(2, lock["dlock"], 0.0, law_state, p["contacts"][k], xp,
                                        mu=self._mu(p, xp)[k])
             return self.to_python([st])[0] if xp is np else st
-        law_state = _lazy(_not(high) & (lock["kind"] == 0), at_max, lambda: law_state, xp)
+        law_state = _lazy(not_(high) & (lock["kind"] == 0), at_max, lambda: law_state, xp)
         new = list(new)
         new[k] = law_state
         new[off + k] = {**lock, **LockPart.init(), "count": lock["count"]}   # (it chattered)
@@ -545,17 +438,17 @@ class LockingModel(HybridModel):
         off = self._lock_offset
         for _ in range(len(self.locks) + 1):
             mask = self._mask(new)
-            if _none(mask):
+            if none(mask):
                 break
             rows, _ = locked_forces(self._law_forces(y, new, p, xp), p["m"], mask, self.K, xp)
-            out = [mask[k] & _not((0.0 < rows[k]) & (rows[k] < new[off + k]["ftop"]))
+            out = [mask[k] & not_((0.0 < rows[k]) & (rows[k] < new[off + k]["ftop"]))
                    for k in range(self.K)]
-            if _none(out):
+            if none(out):
                 break
             earlier = False
             for k in range(self.K):
                 high = rows[k] >= new[off + k]["ftop"]
-                new = _if(out[k] & _not(earlier), lambda k=k, high=high, new=new:
+                new = if_(out[k] & not_(earlier), lambda k=k, high=high, new=new:
                           self._release(k, high, y, new, p, xp), lambda new=new: new, xp)
                 earlier = earlier | out[k]
         return new
@@ -572,8 +465,8 @@ def warning(locks) -> str:
                       for k, ts in sorted(times.items()))
     return (f"a pressed pair locked ({which}): the plain IF-D law chatters there (it closes "
             f"again and again); the pair moved as one body while pressed, a model of that "
-            f"chatter's limit (see 'Locked pairs' in the physics docs; methods 'scipy' and "
-            f"'exact-chain' lock by the same rules, 'diffrax' refuses such chains)")
+            f"chatter's limit (see 'Locked pairs' in the physics docs; methods 'scipy', "
+            f"'exact-chain' and 'diffrax' lock by the same rules)")
 
 
 def lock_warnings(events) -> dict:
