@@ -90,9 +90,9 @@ def cluster_forces(F, m, groups, K: int):
 def locked_forces(F, m, mask, K: int, xp=np):
     """:func:`cluster_forces` for the locked contacts where ``mask`` (K booleans, traced or
     not) is true: ``(rows, join)``, the contact forces (K) and ``join(a)``, the accelerations
-    ``a`` (N) with each cluster's vehicles at its one acceleration. A traced mask: each
-    contact's cluster bounds as traced indices, its masses summed in chain order (as
-    :func:`cluster_forces`)."""
+    ``a`` (N) with each cluster's vehicles at its one acceleration. A traced mask (one state,
+    ``F`` (K,)): each vehicle's cluster as a traced number (the unlocked contacts before it),
+    its mass, ends and rear mass as masked sums, the same formula (:func:`_link`)."""
     if all(concrete(c) for c in mask):
         rows, accels = cluster_forces(F, m, clusters([k for k in range(K) if mask[k]], K + 1),
                                       K)
@@ -103,32 +103,19 @@ def locked_forces(F, m, mask, K: int, xp=np):
                 acc[lo:hi + 1] = [shared] * (hi + 1 - lo)
             return acc
         return rows, join
-    zero = 0.0 * F[0]
-    ext = [zero, *F, zero]   # (ext[j + 1]: contact j)
-    rows, shared = list(F), []
-    for k in range(K):
-        lo, hi, run = k, k + 1, True   # (its cluster: vehicles lo..hi)
-        for j in range(k - 1, -1, -1):
-            run = run & mask[j]
-            lo = xp.where(run, j, lo)
-        run = True
-        for j in range(k + 1, K):
-            run = run & mask[j]
-            hi = xp.where(run, j + 1, hi)
-        left, right, mass, rear = zero, zero, 0.0, 0.0
-        for j in range(K + 1):
-            left = xp.where(lo == j, ext[j], left) if j <= k else left
-            right = xp.where(hi == j, ext[j + 1], right) if j > k else right
-            mass = mass + xp.where((lo <= j) & (j <= hi), m[j], 0.0)
-            rear = rear + xp.where(lo <= j, m[j], 0.0) if j <= k else rear
-        row, accel = _link(mass, rear, left, right)
-        rows[k] = xp.where(mask[k], row, F[k])
-        shared.append(accel)
-
-    def join(a):
-        acc = list(a)
-        for i in range(K + 1):
-            inner = xp.where(mask[i - 1], shared[i - 1], a[i]) if i > 0 else a[i]
-            acc[i] = xp.where(mask[i], shared[i], inner) if i < K else inner
-        return acc
-    return rows, join
+    locked = xp.stack([xp.asarray(c, dtype=bool) for c in mask])
+    N = K + 1
+    cluster = xp.concatenate([xp.zeros(1, int), xp.cumsum(~locked)])        # (N,)
+    same = cluster[:, None] == cluster[None, :]                               # (N, N)
+    mass = xp.sum(xp.where(same, m[None, :], 0.0), axis=1)
+    lo = xp.argmax(same, axis=1)
+    hi = N - 1 - xp.argmax(same[:, ::-1], axis=1)
+    ext = xp.concatenate([xp.zeros(1), F, xp.zeros(1)])   # (ext[j + 1]: contact j)
+    left, right = ext[lo], ext[hi + 1]
+    behind = xp.arange(N)[None, :] <= xp.arange(K)[:, None]                   # (K, N)
+    rear = xp.sum(xp.where(same[:K] & behind, m[None, :], 0.0), axis=1)
+    row, _ = _link(mass[:K], rear, left[:K], right[:K])
+    _, shared = _link(mass, 0.0, left, right)
+    inside = xp.concatenate([locked, xp.zeros(1, bool)]) | xp.concatenate([xp.zeros(1, bool),
+                                                                           locked])
+    return xp.where(locked, row, F), lambda a: xp.where(inside, shared, xp.asarray(a))

@@ -261,7 +261,7 @@ class LockingModel(HybridModel):
         F = xp.asarray(rows)
         net = self.net_forces(F, xp)
         a = net / p["m"].reshape((-1,) + (1,) * (net.ndim - 1))
-        return F, net, xp.asarray(join([a[i] for i in range(self.N)]))
+        return F, net, xp.asarray(join(a))
 
     def _effect_events(self, y, disc, p, xp):
         """The locks' event functions (a chain that can lock has no other effect)."""
