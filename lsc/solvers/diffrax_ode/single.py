@@ -1,5 +1,7 @@
 """A single diffrax solve as a :class:`~lsc.result.Result`: the compiled segment loop with its
-records (:mod:`.core`), then the sampled series from the recorded steps.
+records (:mod:`.core`), then the sampled series from the recorded steps. A chain whose pairs may
+lock is solved with its locks (:func:`lsc.locking.locking_model`, as SciPy's): its events name
+the locks and releases (a release by another part's event too), and its Result the warning.
 
 ``stats["compile_time"]`` [s] is the compile time spent in that call (0 when cached),
 ``stats["wall_time"]`` [s] the run time of the compiled solve (a solve of more than
