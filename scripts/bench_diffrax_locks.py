@@ -57,8 +57,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
     locked = lsc.solve(scene(), method="diffrax")
+    locks = sum("lock" in e.kind.split("+") for e in locked.events)
     print(f"diffrax, locks: compile {locked.stats['compile_time']:.1f} s, "
-          f"{len(locked.events)} events, {sum('lock' in e.kind.split('+') for e in locked.events)} locks")
+          f"{len(locked.events)} events, {locks} locks")
     t_lock = best(lambda: lsc.solve(scene(), method="diffrax"), args.repeat)
     t_scipy = best(lambda: lsc.solve(scene(), method="scipy"), args.repeat)
     plain_model, single.locking_model = single.locking_model, (lambda model: model)
