@@ -68,8 +68,8 @@ from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
            "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
-           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces", "locked_forces",
-           "hold_force"]
+           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces",
+           "locked_forces", "hold_force"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
