@@ -49,7 +49,12 @@ is ``e`` times the last: ``0.05^8 = 4e-11`` of the first, below the integrators'
 and few enough that a chattering chain locks within a few dozen events.
 
 Exact-chain locks by the same rules on its exact motion (:mod:`lsc.solvers.exact_chain._locks`:
-the reduced system of the clusters in closed form); diffrax refuses a scene with the feature.
+the reduced system of the clusters in closed form). Diffrax runs the same transitions inside its
+compiled loop (``xp = jax.numpy``): each condition on the discrete state is then traced, and
+both branches are evaluated and selected field by field (:mod:`lsc.lock_law`), where on NumPy
+only the branch taken runs, the same operations as a plain ``if`` (SciPy's and exact-chain's
+numbers are those of the branching code). Its batch path hands the members whose pairs may lock
+to its single solve (:func:`lock_members`).
 """
 
 from __future__ import annotations
@@ -57,11 +62,14 @@ from __future__ import annotations
 import numpy as np
 
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
+from .laws.hysteresis import _lazy
+from .lock_law import cluster_forces, clusters, if_, locked_forces, none, not_, pick
 from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
            "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
-           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces", "hold_force"]
+           "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces",
+           "locked_forces", "hold_force"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
@@ -87,18 +95,12 @@ def can_lock(model) -> bool:
             and all(isinstance(law, HysteresisLaw) for law in model.laws))
 
 
-def may_lock(model, k: int, p=None, below: float = WATCH_RESTITUTION) -> bool:
+def may_lock(model, k: int, p=None, below: float = WATCH_RESTITUTION):
     """Whether contact ``k`` of a chain that :func:`can_lock` may lock: it unloads by a
-    restitution below ``below`` (``p``: the parameters, the model's own by default)."""
+    restitution below ``below`` (``p``: the parameters, the model's own by default; a traced
+    boolean where they are traced)."""
     p = model.params if p is None else p
-    return model.laws[k].unload_kind == "restitution" and float(p["contacts"][k]["e"]) < below
-
-
-def locks_at_max(model, k: int, w: int, was: dict, now: dict, p) -> bool:
-    """Whether contact ``k``'s law event ``w`` is a max deformation where rule 1 locks a
-    pressed pair: an instant separation, or a restitution below :data:`LOCK_RESTITUTION`."""
-    return w == 2 and int(was["mode"]) == MODE_LOADING and (
-        int(now["mode"]) == MODE_OPEN or may_lock(model, k, p, LOCK_RESTITUTION))
+    return model.laws[k].unload_kind == "restitution" and (p["contacts"][k]["e"] < below)
 
 
 def lock_members(model, p) -> np.ndarray:
@@ -123,35 +125,37 @@ def lock_features(model) -> frozenset[str]:
     return frozenset()
 
 
-def hold_force(model, y, disc, p, locked, k) -> float:
-    """The force [force] contact ``k`` carries with the contacts ``locked`` locked (the laws'
-    forces of the others in discrete state ``disc``, :func:`cluster_forces`)."""
-    F = HybridModel.forces(model, y, disc, p)
-    rows, _ = cluster_forces(F, p["m"], clusters(locked, model.N), model.K)
-    return float(rows[k])
+def hold_force(model, y, disc, p, mask, k, xp=np):
+    """The force [force] contact ``k`` carries with the contacts where ``mask`` (K booleans)
+    is true locked (the laws' forces of the others in discrete state ``disc``,
+    :func:`locked_forces`)."""
+    F = HybridModel.forces(model, y, disc, p, xp)
+    rows, _ = locked_forces(F, p["m"], mask, model.K, xp)
+    return rows[k]
 
 
-def closing_step(w: int, was: dict, now: dict) -> str | None:
+def closing_step(w: int, was: dict, now: dict):
     """What law event ``w`` (0 lo, 1 hi, 2 vmax) from law state ``was`` to ``now`` did to the
-    count of closings: ``"close"`` (closed again at the permanent set, or reloaded past
-    ``D_max``), ``"open"`` (separated), or ``None``."""
-    mb, ma = int(was["mode"]), int(now["mode"])
-    if w == 1 and ((mb == MODE_OPEN and ma != MODE_OPEN)
-                   or (mb == MODE_UNLOADING and ma == MODE_LOADING)):
-        return "close"
-    return "open" if ma == MODE_OPEN and mb != MODE_OPEN else None
+    count of closings: ``(close, open)``, closed again (at the permanent set, or reloaded past
+    ``D_max``) and separated (booleans, traced where the states are)."""
+    mb, ma = was["mode"], now["mode"]
+    close = False
+    if w == 1:
+        close = ((mb == MODE_OPEN) & (ma != MODE_OPEN)) | (
+            (mb == MODE_UNLOADING) & (ma == MODE_LOADING))
+    return close, not_(close) & (ma == MODE_OPEN) & (mb != MODE_OPEN)
 
 
-def recount(step: str, pressed: bool, count: float, mode_after: int) -> tuple[float, float]:
-    """``(count, watch)`` after a closing ``step`` (:func:`closing_step`): a closing while
-    pressed counts; a separation while not pressed starts again. ``watch``: 0 (none), 1 (lock
-    at the next turning point on the line), 2 (lock at the next max deformation)."""
-    if step == "open":
-        return (float(count) if pressed else 0.0), 0.0
-    count = float(count) + (1.0 if pressed else 0.0)
-    if count < CHATTER_CLOSINGS:
-        return count, 0.0
-    return count, (1.0 if int(mode_after) == MODE_UNLOADING else 2.0)
+def recount(close, pressed, count, mode_after, xp=np) -> tuple:
+    """``(count, watch)`` after a closing (``close``; else a separation, :func:`closing_step`):
+    a closing while pressed counts; a separation while not pressed starts again. ``watch``: 0
+    (none), 1 (lock at the next turning point on the line), 2 (lock at the next max
+    deformation)."""
+    closed = count + pick(pressed, 1.0, 0.0, xp)
+    watch = pick(closed < CHATTER_CLOSINGS, 0.0,
+                  pick(mode_after == MODE_UNLOADING, 1.0, 2.0, xp), xp)
+    return (pick(close, closed, pick(pressed, count, 0.0, xp), xp),
+            pick(close, watch, 0.0, xp))
 
 
 class LockPart:
@@ -173,9 +177,13 @@ class LockPart:
         self.k = k
 
     @staticmethod
-    def init() -> dict:
-        """Unlocked, not watching, no closing counted."""
-        return {"mode": 0, "count": 0.0, "watch": 0.0, "kind": 0.0, "ftop": 0.0, "dlock": 0.0}
+    def init(law_state: dict | None = None) -> dict:
+        """Unlocked, not watching, no closing counted (with ``law_state``, the law's state,
+        under the ``law_*`` keys a lock saves: a discrete state of one structure throughout,
+        as a compiled loop carries it)."""
+        out = {"mode": 0, "count": 0.0, "watch": 0.0, "kind": 0.0, "ftop": 0.0, "dlock": 0.0}
+        out.update({"law_" + key: val for key, val in (law_state or {}).items()})
+        return out
 
     @staticmethod
     def armed(st) -> tuple:
@@ -189,61 +197,35 @@ class LockPart:
         return (True, True, True)
 
     @staticmethod
-    def events(force, closing_rate, st) -> list:
+    def events(force, closing_rate, st, xp=np) -> list:
         """``[F_k, F_top - F_k, dD/dt]`` where armed (1 where not)."""
-        on, watch = bool(st["mode"]), st["watch"] == 1.0 and not st["mode"]
-        return [force if on else 1.0, st["ftop"] - force if on else 1.0,
-                closing_rate if watch else 1.0]
+        on = st["mode"] != 0
+        watch = (st["watch"] == 1.0) & not_(on)
+        return [pick(on, force, 1.0, xp), pick(on, st["ftop"] - force, 1.0, xp),
+                pick(watch, closing_rate, 1.0, xp)]
 
     @staticmethod
-    def locked(st, law_state: dict, ftop: float, D: float, kind: int) -> dict:
+    def locked(st, law_state: dict, ftop, D, kind: int) -> dict:
         """The lock's state when it locks with the law in ``law_state``."""
-        out = {"mode": 1, "count": float(st["count"]), "watch": 0.0, "kind": float(kind),
-               "ftop": float(ftop), "dlock": float(D)}
+        out = {"mode": 1, "count": st["count"], "watch": 0.0, "kind": float(kind),
+               "ftop": ftop, "dlock": D}
         out.update({"law_" + key: val for key, val in law_state.items()})
         return out
 
     @staticmethod
-    def saved(st) -> dict:
+    def saved(st, xp=np) -> dict:
         """The law's state saved when the lock locked."""
-        return {key[4:]: (int(val) if key[4:] in ("mode", "seg", "status") else val)
+        whole = ("mode", "seg", "status") if xp is np else ()
+        return {key[4:]: (int(val) if key[4:] in whole else val)
                 for key, val in st.items() if key.startswith("law_")}
-
-
-def clusters(locked, N: int) -> list[tuple[int, int]]:
-    """The vehicle ranges ``(a, b)`` (inclusive) joined by the locked contacts ``locked``."""
-    out = []
-    for k in sorted(locked):
-        if out and out[-1][1] == k:
-            out[-1] = (out[-1][0], k + 1)
-        else:
-            out.append((k, k + 1))
-    return out
-
-
-def cluster_forces(F, m, groups, K: int):
-    """The contact forces (K, ...) with each locked contact's force from its cluster's motion,
-    and each cluster's acceleration: ``[(a, b, accel)]``. ``F``: the contact forces (K, ...)
-    [force] (the locked contacts' rows are replaced); ``m`` (N,) [mass]."""
-    rows = list(F)
-    accels = []
-    for a, b in groups:
-        left = F[a - 1] if a > 0 else 0.0 * F[0]
-        right = F[b] if b < K else 0.0 * F[0]
-        mass = float(np.sum(m[a:b + 1]))
-        rear = 0.0
-        for k in range(a, b):
-            rear += float(m[k])
-            rows[k] = ((mass - rear) * left + rear * right) / mass
-        accels.append((a, b, (left - right) / mass))
-    return rows, accels
 
 
 class LockingModel(HybridModel):
     """A chain's :class:`~lsc.model.HybridModel` with a lock per contact (after the laws and
-    effects, in :attr:`parts` and the discrete state). NumPy only: SciPy's backend builds it
-    (:func:`locking_model`); exact-chain drives its transitions on its own exact motion
-    (:mod:`lsc.solvers.exact_chain._locks`); diffrax refuses chains whose pairs may lock."""
+    effects, in :attr:`parts` and the discrete state), on NumPy or ``jax.numpy`` alike (``xp``):
+    SciPy's and diffrax's backends build it (:func:`locking_model`; diffrax runs its
+    transitions traced, each condition a select); exact-chain drives its transitions on its
+    own exact motion (:mod:`lsc.solvers.exact_chain._locks`)."""
 
     def _more_parts(self) -> list:
         """One :class:`LockPart` per contact."""
@@ -253,17 +235,16 @@ class LockingModel(HybridModel):
     def initial(self, p=None, xp=np):
         """The plain model's initial state, every lock open."""
         y0, disc = super().initial(p, xp)
-        return y0, disc + [lock.init() for lock in self.locks]
+        return y0, disc + [lock.init(disc[lock.k]) for lock in self.locks]
 
     def forces(self, y, disc, p, xp=np):
         """Contact forces (K, ...) [force], a locked contact's from its cluster's motion
-        (:func:`cluster_forces`)."""
+        (:func:`locked_forces`)."""
         F = self._law_forces(y, disc, p, xp)
-        locked = self.locked(disc)
-        if not locked:
+        mask = self._mask(disc)
+        if none(mask):
             return F
-        rows, _ = cluster_forces(F, p["m"], clusters(locked, self.N), self.K)
-        return xp.asarray(rows)
+        return xp.asarray(locked_forces(F, p["m"], mask, self.K, xp)[0])
 
     def _law_forces(self, y, disc, p, xp=np):
         """The contact laws' forces (K, ...) [force] (0 for a locked contact)."""
@@ -272,16 +253,15 @@ class LockingModel(HybridModel):
     def accelerations(self, y, disc, p, xp=np):
         """As the plain model's, each vehicle of a cluster at the cluster's one acceleration
         (exactly: no rounding may open the held deformation)."""
-        F, net, a = super().accelerations(y, disc, p, xp)
-        locked = self.locked(disc)
-        if locked:
-            _, accels = cluster_forces(self._law_forces(y, disc, p, xp), p["m"],
-                                       clusters(locked, self.N), self.K)
-            acc = [a[i] for i in range(self.N)]
-            for first, last, shared in accels:
-                acc[first:last + 1] = [shared] * (last + 1 - first)
-            a = xp.asarray(acc)
-        return F, net, a
+        mask = self._mask(disc)
+        if none(mask):
+            return super().accelerations(y, disc, p, xp)
+        # (can_lock: no brake; the forces and the shared accelerations from one pass)
+        rows, join = locked_forces(self._law_forces(y, disc, p, xp), p["m"], mask, self.K, xp)
+        F = xp.asarray(rows)
+        net = self.net_forces(F, xp)
+        a = net / p["m"].reshape((-1,) + (1,) * (net.ndim - 1))
+        return F, net, xp.asarray(join(a))
 
     def _effect_events(self, y, disc, p, xp):
         """The locks' event functions (a chain that can lock has no other effect)."""
@@ -290,15 +270,21 @@ class LockingModel(HybridModel):
         off = self._lock_offset
         vals = []
         for lock in self.locks:
-            vals.extend(lock.events(F[lock.k], Dd[lock.k], disc[off + lock.k]))
+            vals.extend(lock.events(F[lock.k], Dd[lock.k], disc[off + lock.k], xp))
         return vals
 
     def apply_event(self, i: int, t, y, disc, p, xp=np):
         """The discrete state after event ``i``: its own part's transition (none for a lock's),
         then the locks lock, watch or release as it makes them (:meth:`_relock`)."""
+        return self.settle(y, self.event_transition(i, t, y, disc, p, xp), p, xp)
+
+    def event_transition(self, i: int, t, y, disc, p, xp=np):
+        """:meth:`apply_event` but the release of the locks whose force has left its range
+        (:meth:`settle`, the same for every event: a compiled loop applies it once, after the
+        transition of whichever event fired)."""
         own = self.events[i][0] < self._lock_offset
         new = super().apply_event(i, t, y, disc, p, xp) if own else list(disc)
-        return self._relock(i, y, disc, new, p)
+        return self._relock(i, y, disc, new, p, xp, settle=False)
 
     def event_name(self, i: int, before, after) -> str:
         """What event ``i`` was (``+lock`` where it locked its contact; a lock's own event:
@@ -327,6 +313,12 @@ class LockingModel(HybridModel):
         off = self._lock_offset
         return [lock.k for lock in self.locks if disc[off + lock.k]["mode"]]
 
+    def _mask(self, disc, also=None) -> list:
+        """Whether each contact is locked in ``disc`` (K booleans, traced where it is), and
+        contact ``also``."""
+        off = self._lock_offset
+        return [True if k == also else disc[off + k]["mode"] != 0 for k in range(self.K)]
+
     @staticmethod
     def _lock_name(before, after, law_after) -> str:
         """The name of a lock's event from its states and its law's state after it."""
@@ -347,96 +339,118 @@ class LockingModel(HybridModel):
                 out.append((self._lock_name(before[jj], after[jj], after[lock.k]), lock.k))
         return out
 
-    def _relock(self, i, y, before, new, p):
+    def _relock(self, i, y, before, new, p, xp=np, settle=True):
         """The locks after event ``i`` (its own transition already in ``new``): lock, count,
         watch or release (:mod:`lsc.locking`), then release every lock its force has left
-        (:meth:`_settle_locks`)."""
+        (:meth:`settle`)."""
         j, w = self.events[i]
         off = self._lock_offset
-        if j < self.K and may_lock(self, j, p):
-            new = self._law_event(j, w, y, before[j], new, p)
+        if j < self.K:
+            new = if_(may_lock(self, j, p), lambda: self._law_event(j, w, y, before[j], new, p,
+                                                                    xp), lambda: new, xp)
         elif j >= off:
             k = j - off
             if w == 2:   # settle: the turning point on the line the watch waited for
+                new = list(new)
                 new[j] = dict(new[j], watch=0.0)
                 st = new[k]
-                if int(st["mode"]) == MODE_UNLOADING:
-                    D, _ = self.deformation(y, p)
-                    ftop = self.laws[k].force(D[k], 0.0, st)
-                    new = self._try_lock(k, y, new, p, st, st, ftop, 1)
-            else:
-                new = self._release(k, w == 1, y, new, p)
-        return self._settle_locks(y, new, p)
 
-    def _law_event(self, k, w, y, was, new, p):
+                def lock():
+                    D, _ = self.deformation(y, p, xp)
+                    ftop = self.laws[k].force(D[k], 0.0, st)
+                    return self._try_lock(k, y, new, p, st, st, ftop, 1, xp)
+                new = if_(st["mode"] == MODE_UNLOADING, lock, lambda: new, xp)
+            else:
+                new = self._release(k, w == 1, y, new, p, xp)
+        return self.settle(y, new, p, xp) if settle else new
+
+    def _law_event(self, k, w, y, was, new, p, xp=np):
         """``new`` after contact ``k``'s law event ``w`` from law state ``was``: locked at a
         max deformation (an instant separation, or one the watch waited for) where pressed,
         else its closings counted (:func:`recount`)."""
-        now, lock = new[k], new[self._lock_offset + k]
-        if locks_at_max(self, k, w, was, now, p) or (
-                w == 2 and int(was["mode"]) == MODE_LOADING and lock["watch"] == 2.0):
-            D, _ = self.deformation(y, p)
-            new = self._try_lock(k, y, new, p, was, now, self.laws[k].force(D[k], 0.0, was), 0)
-            if new[self._lock_offset + k]["mode"]:
-                return new
+        off = self._lock_offset
+        now, lock = new[k], new[off + k]
+        tried, locked_now = new, False
+        if w == 2:
+            at_max = (was["mode"] == MODE_LOADING) & (
+                (now["mode"] == MODE_OPEN) | may_lock(self, k, p, LOCK_RESTITUTION)
+                | (lock["watch"] == 2.0))
+
+            def lock_at_max():
+                D, _ = self.deformation(y, p, xp)
+                ftop = self.laws[k].force(D[k], 0.0, was)
+                return self._try_lock(k, y, new, p, was, now, ftop, 0, xp)
+            tried = if_(at_max, lock_at_max, lambda: new, xp)
+            locked_now = at_max & (tried[off + k]["mode"] != 0)
             # (not pressed: the turning point passed; a line too stiff to resolve is watched
             # from the start, its turning points lock where pressed)
-            lock = dict(lock, watch=1.0 if int(now["mode"]) == MODE_UNLOADING else 0.0)
-        step = closing_step(w, was, now)
-        if step is not None:
-            pressed = hold_force(self, y, new, p, sorted({*self.locked(new), k}), k) > 0.0
-            count, watch = recount(step, pressed, lock["count"], now["mode"])
-            lock = dict(lock, count=count, watch=watch)
-        new = list(new)
-        new[self._lock_offset + k] = lock
-        return new
+            lock = _lazy(at_max, lambda: dict(lock, watch=pick(
+                now["mode"] == MODE_UNLOADING, 1.0, 0.0, xp)), lambda: lock, xp)
+        close, opened = closing_step(w, was, now)
 
-    def _try_lock(self, k, y, new, p, saved, records, ftop, kind):
+        def counted():
+            pressed = hold_force(self, y, new, p, self._mask(new, k), k, xp) > 0.0
+            count, watch = recount(close, pressed, lock["count"], now["mode"], xp)
+            return dict(lock, count=count, watch=watch)
+        lock = _lazy(close | opened, counted, lambda: lock, xp)
+        out = list(new)
+        out[off + k] = lock
+        return if_(locked_now, lambda: tried, lambda: out, xp)
+
+    def _try_lock(self, k, y, new, p, saved, records, ftop, kind, xp=np):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
         range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
         the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
-        force = hold_force(self, y, new, p, sorted({*self.locked(new), k}), k)
-        if not 0.0 < force < float(ftop):
-            return new
-        D, _ = self.deformation(y, p)
-        new = list(new)
-        new[k] = dict(records, mode=MODE_UNLOADING, da=0.0, fa=0.0, s=0.0, lo=-BIG, wl=BIG,
-                      hi=BIG, vm=0.0)
-        new[self._lock_offset + k] = LockPart.locked(new[self._lock_offset + k], saved,
-                                                     float(ftop), float(D[k]), kind)
-        return new
+        force = hold_force(self, y, new, p, self._mask(new, k), k, xp)
 
-    def _release(self, k, high: bool, y, new, p):
+        def lock():
+            D, _ = self.deformation(y, p, xp)
+            out = list(new)
+            out[k] = dict(records, mode=MODE_UNLOADING, da=0.0, fa=0.0, s=0.0, lo=-BIG, wl=BIG,
+                          hi=BIG, vm=0.0)
+            off = self._lock_offset
+            out[off + k] = LockPart.locked(new[off + k], saved, ftop, D[k], kind)
+            return out
+        return if_((0.0 < force) & (force < ftop), lock, lambda: new, xp)
+
+    def _release(self, k, high, y, new, p, xp=np):
         """``new`` with contact ``k``'s lock released: onto the law's saved state (reloading
         along its line or curve; ``high``, or a lock on the line), or at zero force from a max
         deformation by the law's own transition (it separates there)."""
         off = self._lock_offset
         lock = new[off + k]
-        law_state = LockPart.saved(lock)
-        if not high and not lock["kind"]:
+        law_state = LockPart.saved(lock, xp)
+
+        def at_max():
             # (at the held deformation: the pair's residual closing rate at the lock, a
             # rounding error, has moved it by a rounding error since)
-            mu = self._mu(p, np)
-            law_state = self.to_python([self.laws[k].on_event(
-                2, lock["dlock"], 0.0, law_state, p["contacts"][k], np, mu=mu[k])])[0]
+            st = self.laws[k].on_event(2, lock["dlock"], 0.0, law_state, p["contacts"][k], xp,
+                                       mu=self._mu(p, xp)[k])
+            return self.to_python([st])[0] if xp is np else st
+        law_state = _lazy(not_(high) & (lock["kind"] == 0), at_max, lambda: law_state, xp)
         new = list(new)
         new[k] = law_state
-        new[off + k] = dict(LockPart.init(), count=lock["count"])   # (a pair that chattered)
+        new[off + k] = {**lock, **LockPart.init(), "count": lock["count"]}   # (it chattered)
         return new
 
-    def _settle_locks(self, y, new, p):
+    def settle(self, y, new, p, xp=np):
         """Release, one at a time, each lock whose force has left ``(0, F_top)``."""
+        off = self._lock_offset
         for _ in range(len(self.locks) + 1):
-            locked = self.locked(new)
-            if not locked:
+            mask = self._mask(new)
+            if none(mask):
                 break
-            rows, _ = cluster_forces(self._law_forces(y, new, p), p["m"],
-                                     clusters(locked, self.N), self.K)
-            out = [(k, float(rows[k]) >= new[self._lock_offset + k]["ftop"]) for k in locked
-                   if not 0.0 < float(rows[k]) < new[self._lock_offset + k]["ftop"]]
-            if not out:
+            rows, _ = locked_forces(self._law_forces(y, new, p, xp), p["m"], mask, self.K, xp)
+            out = [mask[k] & not_((0.0 < rows[k]) & (rows[k] < new[off + k]["ftop"]))
+                   for k in range(self.K)]
+            if none(out):
                 break
-            new = self._release(*out[0], y, new, p)
+            earlier = False
+            for k in range(self.K):
+                high = rows[k] >= new[off + k]["ftop"]
+                new = if_(out[k] & not_(earlier), lambda k=k, high=high, new=new:
+                          self._release(k, high, y, new, p, xp), lambda new=new: new, xp)
+                earlier = earlier | out[k]
         return new
 
 
@@ -451,8 +465,8 @@ def warning(locks) -> str:
                       for k, ts in sorted(times.items()))
     return (f"a pressed pair locked ({which}): the plain IF-D law chatters there (it closes "
             f"again and again); the pair moved as one body while pressed, a model of that "
-            f"chatter's limit (see 'Locked pairs' in the physics docs; methods 'scipy' and "
-            f"'exact-chain' lock by the same rules, 'diffrax' refuses such chains)")
+            f"chatter's limit (see 'Locked pairs' in the physics docs; methods 'scipy', "
+            f"'exact-chain' and 'diffrax' lock by the same rules)")
 
 
 def lock_warnings(events) -> dict:

@@ -20,8 +20,9 @@ limit (issue 13, item 5).
   more than the bounce energy allows.
 - The locked force: a cluster's force from its neighbours' forces and the masses
   (:func:`lsc.locking.cluster_forces`) against Newton's law written out by hand.
-- The contract: ``contact:lock`` is a feature of exactly the scenes whose pairs may lock; SciPy
-  and exact-chain solve it (tests/test_exact_chain_locks.py), diffrax refuses it (a SceneError naming the feature and the remedy).
+- The contract: ``contact:lock`` is a feature of exactly the scenes whose pairs may lock; SciPy,
+  exact-chain (tests/test_exact_chain_locks.py) and diffrax (tests/test_diffrax_locks.py) solve
+  it.
 """
 
 from __future__ import annotations
@@ -259,12 +260,14 @@ def test_the_lock_feature_marks_exactly_the_chains_whose_pairs_may_lock():
     assert lsc.locking.FEATURE not in features(3, 0.0, brake=True)
 
 
-def test_diffrax_refuses_locked_pairs():
-    """(exact-chain locks as SciPy does: tests/test_exact_chain_locks.py)"""
-    instant = CHATTERING_CHAINS[0]
-    with pytest.raises(lsc.SceneError, match=r"method 'diffrax' does not apply to this scene: "
-                       r"it does not solve locked pairs .*; use method 'scipy'"):
-        lsc.solve(instant, method="diffrax")
+def test_every_backend_that_solves_chains_of_such_contacts_solves_locked_pairs():
+    """SciPy, exact-chain and diffrax declare the feature (exact-chain and diffrax lock as
+    SciPy does: tests/test_exact_chain_locks.py, tests/test_diffrax_locks.py; diffrax refused
+    such a scene before, issue 13 item 5 asks for locks in the integrators alike)."""
+    from lsc.solvers import backend
+
+    for name in ("scipy", "exact-chain", "diffrax"):
+        assert lsc.locking.FEATURE in backend(name).solves, name
 
 
 # ------------------------------------------------------------------ hard mode: a larger run

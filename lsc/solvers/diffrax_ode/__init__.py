@@ -9,14 +9,21 @@ are loaded on first use (PEP 562).
 
 from __future__ import annotations
 
+from ...effects import integrable_features
+from ...locking import FEATURE as LOCK
 from ..base import Backend
-from ..integrable import FEATURES
+from ..integrable import BUILTIN
+
+#: What diffrax solves: every integrable feature, and locked pairs (:mod:`lsc.locking`, the
+#: same transitions as SciPy's, traced); a live set, as SciPy's.
+FEATURES = integrable_features(BUILTIN | {LOCK})
 
 __all__ = ["BACKEND", "solve", "solve_batch", "solve_params", "metrics_jacobian", "INTEGRATORS",
            "BATCH_METRICS", "STATUS_CODES", "TRACES"]
 
 #: The diffrax backend's declaration: any number of vehicles, every law and effect, and a
-#: batch path (one vmapped compiled solve) for all of them.
+#: batch path (one vmapped compiled solve) for all of them (members whose pairs may lock go
+#: to the single solve, :func:`lsc.locking.lock_members`).
 BACKEND = Backend(
     name="diffrax", module=__name__ + ".api",
     options=("rtol", "atol", "integrator", "t_end", "max_events", "max_steps", "n_samples"),

@@ -4,7 +4,10 @@
 :meth:`lsc.solvers.base.Backend.solve_batch`): the members in chunks, ordered so that members
 that take similar paths share a chunk, each chunk one call of :func:`solve_params`, which vmaps
 the segment loop (without the records) over a batch of parameters and returns the Result
-metrics per member, with the Result's definitions (:func:`lsc.metrics.metrics`).
+metrics per member, with the Result's definitions (:func:`lsc.metrics.metrics`). Members whose
+pairs may lock (:func:`lsc.locking.lock_members`) are handed to the single solve, which locks
+(:func:`lsc.solvers.base.solve_alone`; its compiled loop is built once per structure and reused
+from member to member): the metrics loop follows the plain law.
 """
 
 from __future__ import annotations
@@ -18,9 +21,11 @@ from .compiled import f64, structure, to_numpy
 
 import jax  # noqa: E402
 
+from ...locking import lock_members  # noqa: E402
 from ...model import HybridModel  # noqa: E402
 from ...parameters import batch_params  # noqa: E402
 from ...result import METRICS  # noqa: E402
+from ..base import solve_alone  # noqa: E402
 from .core import check_settings, segment_loop, status_message  # noqa: E402
 
 __all__ = ["solve_batch", "solve_params", "BATCH_METRICS", "CHUNK"]
@@ -118,9 +123,17 @@ def solve_batch(model, values: dict, *, progress=None, chunk: int = CHUNK, worke
     params = batch_params(model, values)
     groups = ([(model, np.arange(n), params, np.full(n, model.scene.g))] if params is not None
               else _reloaded(model, values, n))
+    alone = []
     for member_model, members, p, g in groups:
-        _solve_chunks(member_model, members, p, g, metrics, status, progress, int(chunk),
-                      workers, options)
+        locks = lock_members(member_model, p)   # (pairs that may lock: the single solve)
+        alone.append(members[locks])
+        keep = np.flatnonzero(~locks)
+        p = jax.tree_util.tree_map(lambda a: np.asarray(a)[keep] if np.ndim(a) else a, p)
+        _solve_chunks(member_model, members[keep], p, np.asarray(g)[keep], metrics, status,
+                      progress, int(chunk), workers, options)
+    from .single import solve
+    solve_alone(solve, model, values, np.concatenate(alone).astype(int), metrics, status,
+                progress=progress, **options)
     return {"metrics": metrics, "status": status}
 
 

@@ -141,9 +141,19 @@ class SegmentLoop(EventSearch, PeakSearch):
         return jnp.where(armed, jnp.min(g), 1.0)
 
     def _branch(self, i):
+        # (a model whose transitions end with a step common to every event, the release of
+        # locked pairs, lsc.locking: that step once, after the switch, in _settle)
+        apply = getattr(self.model, "event_transition", self.model.apply_event)
+
         def transition(t, y, disc, p):
-            return canon(self.model.apply_event(i, t, y, disc, p, jnp))
+            return canon(apply(i, t, y, disc, p, jnp))
         return transition
+
+    def _settle(self, y, disc, p):
+        """The step every transition ends with (:meth:`lsc.locking.LockingModel.settle`;
+        none for a plain model)."""
+        settle = getattr(self.model, "settle", None)
+        return disc if settle is None else canon(settle(y, disc, p, jnp))
 
     def _run(self, p, rtol, atol, t_end, horizon, record: bool, g=None):
         """The whole hybrid solve. ``t_end``, ``horizon`` [s]: NaN when not given (the horizon:
@@ -242,7 +252,8 @@ class SegmentLoop(EventSearch, PeakSearch):
             # the event applied to the absolute state (as SciPy's): a law's reference
             # deformations (D_max, from which a rebound of e = 1e-6, 16 ulps of D_max wide,
             # is measured) are then the next segment's frame origin to the last bit
-            new = lax.switch(i, self.branches, tn, frame.to_abs(tn, yn, jnp), disc, p)
+            ya = frame.to_abs(tn, yn, jnp)
+            new = self._settle(ya, lax.switch(i, self.branches, tn, ya, disc, p), p)
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(fired, a, b), new, disc)
             law, lawk = _law_status(new[:K])
             n_ev = c["n_ev"] + fired.astype(jnp.int32)

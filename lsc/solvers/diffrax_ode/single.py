@@ -1,5 +1,7 @@
 """A single diffrax solve as a :class:`~lsc.result.Result`: the compiled segment loop with its
-records (:mod:`.core`), then the sampled series from the recorded steps.
+records (:mod:`.core`), then the sampled series from the recorded steps. A chain whose pairs may
+lock is solved with its locks (:func:`lsc.locking.locking_model`, as SciPy's): its events name
+the locks and releases (a release by another part's event too), and its Result the warning.
 
 ``stats["compile_time"]`` [s] is the compile time spent in that call (0 when cached),
 ``stats["wall_time"]`` [s] the run time of the compiled solve (a solve of more than
@@ -18,6 +20,7 @@ from .compiled import bucket, f64, to_numpy, unflat
 import jax  # noqa: E402
 
 from ...errors import SimulationError  # noqa: E402
+from ...locking import lock_warnings, locking_model  # noqa: E402
 from ...result import Event  # noqa: E402
 from ..segments import Segment, build_result  # noqa: E402
 from .core import RECORD_FULL, check_settings, segment_loop, status_message  # noqa: E402
@@ -140,8 +143,12 @@ def events_of(model, core, out):
     for e in range(E):
         i = int(rec[e, 1])
         name = model.event_name(i, states[e], states[e + 1])
-        events.append(Event(float(rec[e, 0]), name, model.event_index(i)))
-        if "separation" in name:
+        t = float(rec[e, 0])
+        events.append(Event(t, name, model.event_index(i)))
+        # (a locked pair released by another part's event: lsc.locking)
+        side = model.side_events(i, states[e], states[e + 1])
+        events += [Event(t, kind, k) for kind, k in side]
+        if "separation" in name or any("separation" in kind for kind, _ in side):
             y_post = rec[e, 2:2 + n]
     return discs, states, events, y_post
 
@@ -155,6 +162,7 @@ def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, 
     smallest mass for work integrals); ``t_end`` [s]: simulate until then; ``max_steps``: most
     steps in one segment; ``max_events``: most events in one solve.
     """
+    model = locking_model(model)   # a chain's contacts pushed shut lock (lsc.locking)
     core, p, out, compile_time, wall = record(model, integrator=integrator, rtol=rtol, atol=atol,
                                               t_end=t_end, max_steps=max_steps,
                                               max_events=max_events)
@@ -169,7 +177,8 @@ def solve(model, *, integrator: str = "Dopri8", rtol: float = 1e-10, atol=None, 
         nfev = (steps + rejected) * core.evals_per_step + 3 * nseg
     stats = {"steps": steps, "rejected_steps": rejected, "rhs_evaluations": nfev,
              "segments": nseg, "wall_time": wall,
-             "compile_time": compile_time + sampler.compile_time}
+             "compile_time": compile_time + sampler.compile_time,
+             **lock_warnings(events)}   # (a lock left the plain IF-D law: say so)
     return build_result(model, segments, events, out["y"], states[-1],
                         method=f"diffrax-{integrator}", tolerances={"rtol": rtol, "atol": atol},
                         stats=stats, n_samples=n_samples, y_post=y_post)

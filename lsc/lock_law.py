@@ -1,0 +1,121 @@
+"""The locked pair's force law (:mod:`lsc.locking`), and the selects its transitions run on.
+
+A cluster of vehicles joined by locked contacts moves as one body: :func:`cluster_forces` (the
+law, for the clusters of a known set of locked contacts: SciPy and exact-chain) and
+:func:`locked_forces` (the same law for a mask of locked contacts that may be traced: diffrax's
+compiled loop, where each contact's cluster bounds are traced indices).
+
+The selects (:func:`pick`, :func:`if_`) run a transition written once on NumPy, where each
+condition is known and only the branch taken runs (the same operations as a plain ``if``), and
+on ``jax.numpy``, where a traced condition evaluates both branches and selects field by field.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .laws._common import select
+
+__all__ = ["clusters", "cluster_forces", "locked_forces", "concrete", "not_", "pick", "if_",
+           "none"]
+
+
+def concrete(c) -> bool:
+    """Whether the condition ``c`` is known now (a Python or NumPy boolean), not traced."""
+    return isinstance(c, (bool, np.bool_)) or (isinstance(c, np.ndarray) and c.ndim == 0)
+
+
+def not_(c):
+    """``not c``, traced or not."""
+    return (not c) if concrete(c) else ~c
+
+
+def pick(c, a, b, xp):
+    """``a`` where ``c`` else ``b``: the one taken where ``c`` is known now."""
+    if concrete(c):
+        return a if c else b
+    return xp.where(c, a, b)
+
+
+def if_(c, a, b, xp) -> list:
+    """The discrete state ``a()`` where ``c`` else ``b()`` (thunks): only the one taken where
+    ``c`` is known now (NumPy: the same operations as a plain ``if``); both, then selected field
+    by field, where it is traced (an entry the two share is kept as it is)."""
+    if concrete(c):
+        return a() if c else b()
+    A, B = a(), b()
+    return [x if x is y else select(c, x, y, xp) for x, y in zip(A, B)]
+
+
+def none(mask) -> bool:
+    """Whether the lock mask ``mask`` is known to hold no lock."""
+    return all(concrete(c) and not c for c in mask)
+
+
+def clusters(locked, N: int) -> list[tuple[int, int]]:
+    """The vehicle ranges ``(a, b)`` (inclusive) joined by the locked contacts ``locked``."""
+    out = []
+    for k in sorted(locked):
+        if out and out[-1][1] == k:
+            out[-1] = (out[-1][0], k + 1)
+        else:
+            out.append((k, k + 1))
+    return out
+
+
+def _link(mass, rear, left, right):
+    """A locked contact's force and its cluster's acceleration (the module: ``M``, ``M_rear``,
+    ``F_L``, ``F_R``)."""
+    return ((mass - rear) * left + rear * right) / mass, (left - right) / mass
+
+
+def cluster_forces(F, m, groups, K: int):
+    """The contact forces (K, ...) with each locked contact's force from its cluster's motion,
+    and each cluster's acceleration: ``[(a, b, accel)]``. ``F``: the contact forces (K, ...)
+    [force] (the locked contacts' rows are replaced); ``m`` (N,) [mass]."""
+    rows = list(F)
+    accels = []
+    for a, b in groups:
+        left = F[a - 1] if a > 0 else 0.0 * F[0]
+        right = F[b] if b < K else 0.0 * F[0]
+        mass = float(np.sum(m[a:b + 1]))
+        rear = 0.0
+        for k in range(a, b):
+            rear += float(m[k])
+            rows[k] = _link(mass, rear, left, right)[0]
+        accels.append((a, b, _link(mass, 0.0, left, right)[1]))
+    return rows, accels
+
+
+def locked_forces(F, m, mask, K: int, xp=np):
+    """:func:`cluster_forces` for the locked contacts where ``mask`` (K booleans, traced or
+    not) is true: ``(rows, join)``, the contact forces (K) and ``join(a)``, the accelerations
+    ``a`` (N) with each cluster's vehicles at its one acceleration. A traced mask (one state,
+    ``F`` (K,)): each vehicle's cluster as a traced number (the unlocked contacts before it),
+    its mass, ends and rear mass as masked sums, the same formula (:func:`_link`)."""
+    if all(concrete(c) for c in mask):
+        rows, accels = cluster_forces(F, m, clusters([k for k in range(K) if mask[k]], K + 1),
+                                      K)
+
+        def join(a):
+            acc = list(a)
+            for lo, hi, shared in accels:
+                acc[lo:hi + 1] = [shared] * (hi + 1 - lo)
+            return acc
+        return rows, join
+    locked = xp.stack([xp.asarray(c, dtype=bool) for c in mask])
+    N = K + 1
+    cluster = xp.concatenate([xp.zeros(1, int), xp.cumsum(~locked)])        # (N,)
+    same = cluster[:, None] == cluster[None, :]                               # (N, N)
+    mass = xp.sum(xp.where(same, m[None, :], 0.0), axis=1)
+    lo = xp.argmax(same, axis=1)
+    hi = N - 1 - xp.argmax(same[:, ::-1], axis=1)
+    ext = xp.concatenate([xp.zeros(1), F, xp.zeros(1)])   # (ext[j + 1]: contact j)
+    left, right = ext[lo], ext[hi + 1]
+    behind = xp.arange(N)[None, :] <= xp.arange(K)[:, None]                   # (K, N)
+    rear = xp.sum(xp.where(same[:K] & behind, m[None, :], 0.0), axis=1)
+    row, _ = _link(mass[:K], rear, left[:K], right[:K])
+    _, shared = _link(mass, 0.0, left, right)
+    inside = xp.concatenate([locked, xp.zeros(1, bool)]) | xp.concatenate([xp.zeros(1, bool),
+                                                                           locked])
+    return xp.where(locked, row, F), lambda a: xp.where(inside, shared, xp.asarray(a))
