@@ -25,7 +25,7 @@ import numpy as np
 
 __all__ = ["PER_CONTACT", "one_contact", "FIRST_KEYS", "PUSHED", "pairs", "first_impacts_init",
            "ongoing", "fold_peaks", "event_update", "restitution", "in_g", "tie_window",
-           "TIE_ROUNDING", "RESTART_SHIFT", "simultaneous_touch", "headline", "metrics"]
+           "TIE_ROUNDING", "RESTART_SHIFT", "INTEGRATOR_TIE", "simultaneous_touch", "headline", "metrics"]
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: is pushed shut, not struck: its velocity restitution is not applicable (NaN).
@@ -42,10 +42,15 @@ TIE_ROUNDING = 1e-13
 
 #: The integrators' restart shift, relative to an event's scale: an event that starts a segment
 #: on its surface fires only once the state is this far into it (SciPy's and diffrax's
-#: ``EVENT_TOL``), so a closing simultaneous with another event is seen up to this fraction of
-#: its contact's time scale late (4.5e-13 s of a 1.5 s impact, whatever the ``rtol``): the
-#: least ``resolution`` :func:`tie_window` takes for an integrator.
+#: ``EVENT_TOL``; SciPy fires one going further in at once, diffrax then), so diffrax sees a
+#: closing simultaneous with another event ``RESTART_SHIFT`` times the event's length scale
+#: (the speed scale times the contact time) over the closing rate late: 4.5e-13 s of a 1.5 s
+#: impact at 1 ft/s, 1.1e-12 s of a 0.9 s one with the cars at 6 ft/s, whatever the ``rtol``.
 RESTART_SHIFT = 1e-12
+
+#: The least ``resolution`` :func:`tie_window` takes for an integrator: the restart shift's
+#: delay for a closing rate down to 1/1000 of the speed scale, relative to the contact time.
+INTEGRATOR_TIE = 1e3 * RESTART_SHIFT
 
 
 def tie_window(t, span, resolution=0.0, xp=np):
@@ -53,9 +58,9 @@ def tie_window(t, span, resolution=0.0, xp=np):
     at time ``t`` (...) [time] whose impact lasts ``span`` (...) [time], in a solve whose event
     times are resolved to ``resolution`` [-] (relative; an integrator's ``rtol``, 0 for an
     exact backend): ``max(resolution, floor) * max(|t|, span)``, the floor
-    :data:`RESTART_SHIFT` for an integrator, :data:`TIE_ROUNDING` for an exact backend."""
+    :data:`INTEGRATOR_TIE` for an integrator, :data:`TIE_ROUNDING` for an exact backend."""
     resolution = xp.asarray(resolution)
-    floor = xp.where(resolution > 0, RESTART_SHIFT, TIE_ROUNDING)
+    floor = xp.where(resolution > 0, INTEGRATOR_TIE, TIE_ROUNDING)
     return xp.maximum(resolution, floor) * xp.maximum(xp.abs(t), span)
 
 
