@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, msum
+from ._batch_modes import Sums, half_angle, msum
 from ._roots import PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
@@ -240,7 +240,7 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     first = 1 if w.shape[1] > 1 and not w[:, 0].any() else 0
     rigid = w[:, first:] == 0
     ws = np.where(rigid, 1.0, w[:, first:])
-    half = 0.5 * ws
+    half, inv = 0.5 * ws, 1.0 / ws
     S, C = np.empty(w.shape), np.empty(w.shape)
     sign = np.where(fa[live] > 0, 1.0, -1.0)[:, None]
     al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
@@ -254,28 +254,25 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     back = (np.full(live.size, np.nan),) * 3
     some_rigid = bool(rigid.any())
     with np.errstate(all="ignore"):
-        return _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c,
+        return _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, kal, c,
                        lo, hi, xl, floor, back, S, C)
 
 
-def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c, lo, hi, xl,
+def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, kal, c, lo, hi, xl,
             floor, back, S, C):
     """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
     act = np.ones(live.size, bool)     # (the brackets still open)
     for k in range(iterations):
         x_k = xl
         tau = xl[:, None]
-        hx = half * tau
-        sw = np.sin(hx) / ws
-        two_sw = 2.0 * sw
+        Se, Ce = half_angle(half * tau, inv)
         half_tt = 0.5 * tau * tau
         S[:, :first], C[:, :first] = tau, half_tt
         if some_rigid:
-            S[:, first:] = np.where(rigid, tau, two_sw * np.cos(hx))
-            C[:, first:] = np.where(rigid, half_tt, two_sw * sw)
+            S[:, first:] = np.where(rigid, tau, Se)
+            C[:, first:] = np.where(rigid, half_tt, Ce)
         else:
-            np.multiply(two_sw, np.cos(hx, out=hx), out=S[:, first:])
-            np.multiply(two_sw, sw, out=C[:, first:])
+            S[:, first:], C[:, first:] = Se, Ce
         f = c + msum(al * S + ga * C)
         df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
@@ -306,8 +303,8 @@ def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal
                 return x
             if 2 * n_act <= act.size:
                 keep = act
-                live, rigid, ws, half, al, ga, kal, c, S, C = (
-                    live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep],
+                live, rigid, inv, half, al, ga, kal, c, S, C = (
+                    live[keep], rigid[keep], inv[keep], half[keep], al[keep], ga[keep],
                     kal[keep], c[keep], S[keep], C[keep])
                 lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
                 back = tuple(a[keep] for a in back)
