@@ -222,8 +222,8 @@ F_BIG = np.iinfo(np.int64).max
 def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
-    method on the closed-form derivative, kept inside the bracket (a step that leaves it
-    bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
+    method on the closed-form derivative from the chord's zero, kept inside the bracket (a
+    step that leaves it bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
     at the start). The brackets still open are the only ones computed on."""
     fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
@@ -246,7 +246,12 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
     kal = g.kappa[live] * al
     c = sign[:, 0] * g.c[live, 0]
-    lo, hi, xl = a[live], b[live], x[live]
+    lo, hi = a[live], b[live]
+    # (Newton's start: the chord's zero, inside the bracket)
+    with np.errstate(all="ignore"):
+        fl, fh = fa[live], fb[live]
+        xl = np.clip(lo - fl * ((hi - lo) / (fh - fl)), lo, hi)
+    xl = np.where(np.isfinite(xl), xl, x[live])
     floor = _EPS * (hi - lo)
     # the state two steps back: a step that comes back to it (a cycle between two floats
     # round the zero, where the function is rounding) repeats for good, so the state the last
@@ -383,8 +388,8 @@ def extreme_values(g: Sums, T, largest):
         count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
         tt, end = _windows(lo, hi, h, first, count)
         gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
-        S, C = gl.basis(tt)
-        vals, dv = gl.on(S, C), dl.on(S, C)
+        SC = gl.basis(tt)
+        vals, dv = gl.on(SC), dl.on(SC)
         if k == 0:     # (r: every member once)
             np.fmax(top, np.max(vals, axis=2), out=top)
             np.fmin(bottom, np.min(vals, axis=2), out=bottom)
@@ -418,7 +423,7 @@ def extreme_values(g: Sums, T, largest):
             rq, wq = r[q], w[q]
             size = np.maximum(np.abs(top[rq]), np.abs(bottom[rq]))[:, :, None]
             excess = wq * (margin[q] - low[q])
-            ddv = dd.take(rq).on(S[q], C[q])
+            ddv = dd.take(rq).on(SC[q])
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
                                       > Bdd[rq][:, :, None] * wq ** 2 / 8.0)
