@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._batch_modes import Sums, half_angle, msum
-from ._roots import PER_RADIAN, TOUCH
+from ._roots import EXTREMUM_RTOL, PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
 
@@ -219,12 +219,15 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
 F_BIG = np.iinfo(np.int64).max
 
 
-def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
+def refine(g: Sums, a, b, fa, fb, iterations: int = 100, rtol: float = 4 * _EPS):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
     method on the closed-form derivative from the chord's zero, kept inside the bracket (a
     step that leaves it bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
-    at the start). The brackets still open are the only ones computed on."""
+    at the start). The brackets still open are the only ones computed on. ``rtol``: the
+    step, relative to the time (and to the bracket's width), that ends the iterations
+    (:data:`._roots.EXTREMUM_RTOL` for the zeros of a derivative, as the single solve's
+    :func:`._roots._refine_many`: the function's value there is off by its square)."""
     fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
@@ -252,7 +255,7 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
         fl, fh = fa[live], fb[live]
         xl = np.clip(lo - fl * ((hi - lo) / (fh - fl)), lo, hi)
     xl = np.where(np.isfinite(xl), xl, x[live])
-    floor = _EPS * (hi - lo)
+    floor = max(0.25 * rtol, _EPS) * (hi - lo)
     # the state two steps back: a step that comes back to it (a cycle between two floats
     # round the zero, where the function is rounding) repeats for good, so the state the last
     # step would leave is known at once (by the parity of the steps left)
@@ -260,11 +263,11 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     some_rigid = bool(rigid.any())
     with np.errstate(all="ignore"):
         return _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, kal, c,
-                       lo, hi, xl, floor, back, S, C)
+                       lo, hi, xl, floor, back, S, C, rtol)
 
 
 def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, kal, c, lo, hi, xl,
-            floor, back, S, C):
+            floor, back, S, C, rtol):
     """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
     act = np.ones(live.size, bool)     # (the brackets still open)
     for k in range(iterations):
@@ -278,14 +281,17 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
             C[:, first:] = np.where(rigid, half_tt, Ce)
         else:
             S[:, first:], C[:, first:] = Se, Ce
+        terms = np.abs(c) + msum(np.abs(al * S) + np.abs(ga * C))
         f = c + msum(al * S + ga * C)
         df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
         new = xl - f / df
-        tol = 4 * _EPS * np.abs(xl) + floor
-        zero = f == 0
+        tol = rtol * np.abs(xl) + floor
+        # (a value within a few ulps of its terms' sizes is rounding: its sign says nothing
+        # more, and the iterations stop)
+        zero = np.abs(f) <= 8 * _EPS * terms
         done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
@@ -411,7 +417,8 @@ def extreme_values(g: Sums, T, largest):
             tm, bm = top[r[m], j], bottom[r[m], j]
             peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
             m, j, i = (x[~(reach < peak)] for x in (m, j, i))
-            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
+            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
+                           rtol=EXTREMUM_RTOL)
             at = gl.take(m, j).each_at(roots[:, None])[:, 0]
             np.fmax.at(top, (r[m], j), at)
             np.fmin.at(bottom, (r[m], j), at)
