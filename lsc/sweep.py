@@ -16,9 +16,9 @@ its own settings.
 
 The members are solved in chunks (:mod:`lsc.chunks`), in this process or on an executor (a
 process pool, a Dask cluster; ``workers=N`` for a backend whose batch path does not take it as
-its own threads: a pool of N processes), and kept in memory (:class:`SweepResult`) or written to a Parquet
-file as they come (``out=``, :class:`lsc.parquet.SweepFile`): memory then holds a few chunks,
-whatever the number of members.
+its own threads: a pool of N processes), and kept in memory (:class:`SweepResult`) or written
+to a Parquet file as they come (``out=``, :class:`lsc.parquet.SweepFile`): memory then holds a
+few chunks, whatever the number of members.
 """
 
 from __future__ import annotations

@@ -13,8 +13,8 @@ worker processes), and the vectorised path's own throughput without them.
 The sweep is run in this process (``--workers 1``) and on a process pool (``--workers 2``:
 ``lsc.sweep(..., executor=ProcessPoolExecutor(2))``, chunks of :func:`lsc.chunks.task_size`
 or ``--task-size``), side by side, in wall time; in this process also in its CPU time (the
-figure to compare on a shared machine). (``workers=`` of ``lsc.sweep`` is a control of the
-batched integrator's batch path; the exact-chain batch does not take it.)
+figure to compare on a shared machine). (``lsc.sweep(..., workers=2)`` makes the same pool
+itself; the pool here is the script's own, to count the hand-offs in its workers.)
 
     python scripts/bench_chain_sweep.py                     # 10^5 members, subset 200
     python scripts/bench_chain_sweep.py --n 20000 --subset 100 --e-min 0 --workers 1,2

@@ -222,12 +222,13 @@ F_BIG = np.iinfo(np.int64).max
 def refine(g: Sums, a, b, fa, fb, iterations: int = 100, rtol: float = 4 * _EPS):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
-    method on the closed-form derivative from the chord's zero, kept inside the bracket (a
-    step that leaves it bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
-    at the start). The brackets still open are the only ones computed on. ``rtol``: the
-    step, relative to the time (and to the bracket's width), that ends the iterations
-    (:data:`._roots.EXTREMUM_RTOL` for the zeros of a derivative, as the single solve's
-    :func:`._roots._refine_many`: the function's value there is off by its square)."""
+    method on the closed-form derivative from the chord's zero (as :func:`._roots._refine`),
+    kept inside the bracket (a step that leaves it bisects), until the step is ``rtol`` of
+    the time (or of the bracket's width, for a zero at the start) or the value is rounding
+    (within a few ulps of its terms' sizes). The brackets still open are the only ones
+    computed on. ``rtol``: :data:`._roots.EXTREMUM_RTOL` for the zeros of a derivative, as
+    the single solve's :func:`._roots._refine_many` (the function's value there is off by
+    the square of it)."""
     fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
