@@ -83,21 +83,27 @@ def _single(scene, values, j, **options):
         return f"SimulationError: {err}"
 
 
-#: Members allowed to differ from the single solve by more than 1e-12 per chain length (none
-#: in the default run). Both solves are exact to rounding, but not to the same rounding (the
-#: modes of stacked matrices, sums in another order): over a long sequence of events in an
-#: ill-conditioned chain the ulps grow to 1e-11 of a final speed or restitution, and a contact
-#: left at its permanent set to within the rounding of the positions, pushed shut at 1e-11
-#: ft/s, is touching now for one solve and microseconds later for the other (the sign of a gap
-#: of 1e-17 ft), which can move which impact a vehicle's ΔV is read from (by 1e-7 of the
-#: speeds). --hard (40 members per length) meets 3 such members among its 4-car chains.
-ROUNDING_CASES = 3 if HARD else 0
+def _rounding_response(scene, values, j, name) -> np.ndarray:
+    """How far the single solve's metric ``name`` of member ``j`` moves (per element) when the
+    rear car's speed moves by a relative 1e-14: the member's own amplification of rounding."""
+    member = {path: float(v[j]) for path, v in values.items()}
+    moved = {**member, "vehicles.0.speed": member["vehicles.0.speed"] * (1 + 1e-14)}
+    r, r2 = (exact_chain.solve(HybridModel(scene.with_values(m)), n_samples=2)
+             for m in (member, moved))
+    return np.abs(np.asarray(getattr(r2, name), float) - np.asarray(getattr(r, name), float))
 
 
 def _differing(scene, values, out) -> list:
     """The members whose batch metrics differ from the single solve's by more than 1e-12 of
-    their scale (and the rounding of the positions); a failing member must have the single
-    solve's message."""
+    their scale (and the rounding of the positions) and by more than what a relative change
+    of 1e-12 in the data does to the single solve (100 times its response to 1e-14 of the
+    rear car's speed, :func:`_rounding_response`); a failing member must have the single
+    solve's message. Both solves are exact to rounding, but not to the same rounding (the
+    modes of stacked matrices, sums in another order, the stops of the root refinements):
+    an ill-conditioned chain (light cars ringing between stiff contacts, tens of events)
+    amplifies those ulps up to 1e7 times. Measured on 400 random 4-car chains: 37 members
+    beyond 1e-12 (v_final up to 2.8e-7 of its scale), each within 80 times its response to
+    1e-14, most within 4 times."""
     differ = []
     for j in range(len(out["status"])):
         r = _single(scene, values, j)
@@ -112,6 +118,9 @@ def _differing(scene, values, out) -> list:
                 continue
             scale = np.nanmax(np.abs(getattr(r, SCALE_OF.get(name, name))))
             tol = 1e-12 * scale + rounding(r).get(name, 0.0)
+            if np.all((np.abs(got - want) <= tol) | np.isnan(want)):
+                continue
+            tol = tol + 100 * _rounding_response(scene, values, j, name)
             if not np.all((np.abs(got - want) <= tol) | np.isnan(want)):
                 differ.append((j, name, want, got))
     return differ
@@ -120,8 +129,23 @@ def _differing(scene, values, out) -> list:
 @pytest.mark.parametrize("N, seed", [(3, 1), (4, 2), (5, 3)])
 def test_batch_is_the_single_solve_member_by_member(N, seed):
     scene, values = random_chains(N, MEMBERS, seed, e_min=0.05)
-    differ = _differing(scene, values, exact_chain.solve_batch(HybridModel(scene), values))
-    assert len({d[0] for d in differ}) <= ROUNDING_CASES, differ
+    assert _differing(scene, values, exact_chain.solve_batch(HybridModel(scene), values)) == []
+
+
+def test_an_ill_conditioned_member_agrees_to_its_rounding_response():
+    """Light middle cars (56 and 68 lb) between stiff contacts, 79 events: the batch's and the
+    single solve's final speeds part by about 2e-7 ft/s, far beyond 1e-12 of the speeds, while
+    a relative change of 1e-14 in the rear car's speed moves the single solve's by as much: the
+    chain amplifies rounding some 1e7 times, and the two agree to what a change of 1e-12 in
+    the data does."""
+    scene, values = random_chains(4, 400, 2, e_min=0.05)
+    one = {path: v[106:107] for path, v in values.items()}
+    out = exact_chain.solve_batch(HybridModel(scene), one)
+    r = _single(scene, one, 0)
+    dv = np.max(np.abs(out["metrics"]["v_final"][0] - r.v_final))
+    scale = np.max(np.abs(r.v_final))
+    assert len(r.events) > 50 and dv > 1e-10 * scale
+    assert dv <= 1e-12 * scale + 100 * np.max(_rounding_response(scene, one, 0, "v_final"))
 
 
 def test_unloading_by_stiffness_is_the_single_solve_member_by_member():
