@@ -298,3 +298,53 @@ def test_the_sampled_basis_is_the_sine_and_cosine_to_a_few_ulps(w):
         assert abs(s - s_want) <= 8e-16 * (abs(s_want) + abs(x * mpmath.cos(x)) / w), t
         assert abs(c - c_want) <= 8e-16 * (abs(c_want) + abs(x * s_want) / w) + 1e-300, t
     assert np.all(S[0, :, 0] == tau) and np.all(C[0, :, 0] == 0.5 * tau * tau)
+
+
+def test_refined_zeros_are_the_true_zeros_to_the_rounding_of_the_function():
+    """``_batch_roots.refine`` on random functions ``c + α₀τ + γ₀τ²/2 + α₁ S₁ + γ₁ C₁`` (a rigid
+    mode and an elastic one) bracketed round a sign change: each zero is mpmath's to a few ulps
+    of the time plus what the rounding of the function's value (8 ulps of its terms' sizes,
+    where the iterations stop) moves it by, that over the slope; the zeros of a derivative
+    (``rtol=EXTREMUM_RTOL``) to that fraction of the time."""
+    import mpmath
+    from lsc.solvers.exact_chain._batch_modes import Sums
+    from lsc.solvers.exact_chain._batch_roots import refine
+    from lsc.solvers.exact_chain._roots import EXTREMUM_RTOL
+
+    rng = np.random.default_rng(4)
+    n = 200
+    w = np.stack([np.zeros(n), 10 ** rng.uniform(0, 4, n)], axis=1)
+    alpha, gamma = rng.normal(size=(n, 1, 2)), rng.normal(size=(n, 1, 2)) * w[:, None, :]
+    # (a zero at 0.2 to 0.8 of a bracket of up to a radian of the elastic mode)
+    a = np.zeros(n)
+    b = rng.uniform(0.05, 1.0, n) / w[:, 1]
+    zero = rng.uniform(0.2, 0.8, n) * b
+    g = Sums(np.zeros((n, 1)), alpha, gamma, w * w, w)
+    c = -g.each_at(zero[:, None])
+    g = Sums(c, alpha, gamma, w * w, w)
+    fa, fb = g.each_at(a[:, None])[:, 0], g.each_at(b[:, None])[:, 0]
+    ok = fa * fb < 0
+    assert ok.sum() > 100
+    mpmath.mp.prec = 120
+
+    def value(j, t, slope=False):
+        t, om = mpmath.mpf(t), mpmath.mpf(w[j, 1])
+        S, C = mpmath.sin(om * t) / om, 2 * (mpmath.sin(om * t / 2) / om) ** 2
+        if slope:
+            return alpha[j, 0, 0] + gamma[j, 0, 0] * t + alpha[j, 0, 1] * (1 - om ** 2 * C) \
+                + gamma[j, 0, 1] * S
+        return c[j, 0] + alpha[j, 0, 0] * t + gamma[j, 0, 0] * t * t / 2 + alpha[j, 0, 1] * S \
+            + gamma[j, 0, 1] * C
+
+    r = np.flatnonzero(ok)
+    for rtol in (4 * np.finfo(float).eps, EXTREMUM_RTOL):
+        got = refine(g.take(r), a[r], b[r], fa[r], fb[r], rtol=rtol)
+        for j, t in zip(r, got):
+            want = mpmath.findroot(lambda x: value(j, x), mpmath.mpf(zero[j]))
+            x = float(want)
+            S, C = np.sin(w[j, 1] * x) / w[j, 1], (1 - np.cos(w[j, 1] * x)) / w[j, 1] ** 2
+            terms = (abs(c[j, 0]) + abs(alpha[j, 0, 0] * x) + abs(gamma[j, 0, 0]) * x * x / 2
+                     + abs(alpha[j, 0, 1] * S) + abs(gamma[j, 0, 1] * C))
+            slope = abs(float(value(j, want, slope=True)))
+            allowed = rtol * b[j] + 8 * np.finfo(float).eps * (abs(x) + terms / slope)
+            assert abs(t - float(want)) <= allowed, (j, t, float(want), allowed)
