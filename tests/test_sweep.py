@@ -288,6 +288,25 @@ def test_exact_chain_sweep_workers_spread_the_batch_over_processes(monkeypatch):
                             "give one or the other")
 
 
+def test_worker_pools_are_not_forked_from_a_process_running_jax(monkeypatch):
+    """``workers=`` (and the CLI's ``--workers``) forks its processes, the cheapest start, but
+    not once JAX is imported: a forked child of a process with JAX's threads can deadlock
+    (Python warns of it), so the pool then starts from a fork server. (JAX's presence is what
+    ``sys.modules`` says: set and unset here, not imported.)"""
+    import types
+
+    from lsc.chunks import executor_from
+
+    def method():
+        with executor_from(2) as pool:
+            return pool._mp_context.get_start_method()
+
+    monkeypatch.delitem(sys.modules, "jax", raising=False)
+    assert method() == "fork"
+    monkeypatch.setitem(sys.modules, "jax", types.ModuleType("jax"))
+    assert method() == "forkserver"
+
+
 def test_cli_sweep_with_diffrax(tmp_path, capsys):
     pytest.importorskip("diffrax")
     from lsc.cli import main
