@@ -356,7 +356,7 @@ FLAT = 1e-14
 PEAK_LEVELS = 6
 
 
-def extreme_values(g: Sums, T, largest):
+def extreme_values(g: Sums, T, largest, turns=None):
     """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
     values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
     ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
@@ -368,7 +368,9 @@ def extreme_values(g: Sums, T, largest):
     below :data:`FLAT` of the function's size, or where the derivative is provably monotone on
     it (a bound on the next derivative), else sampled again :data:`WINDOW` times finer, up to
     :data:`PEAK_LEVELS` times; a member with an interval still not cleared is *undecided* (the
-    caller solves it alone)."""
+    caller solves it alone). ``turns`` (b, F) bool, optional: the functions that may turn
+    inside ``[0, T]``; the others are monotone (their extremes are at the ends, among the
+    samples), and neither their derivative's zeros nor its grazing intervals are searched."""
     b, F = g.c.shape
     d = g.derivative()
     dd = d.derivative()
@@ -407,6 +409,9 @@ def extreme_values(g: Sums, T, largest):
         w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
         margin = Bd[r][:, :, None] * w ** 2 / 8.0
         change = (a * c <= 0) & (a != c)
+        if turns is not None:
+            turning = turns[r][:, :, None]
+            change &= turning
         if change.any():
             # (a zero of g' whose value cannot beat the peak so far need not be refined:
             # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
@@ -425,6 +430,8 @@ def extreme_values(g: Sums, T, largest):
             np.fmin.at(bottom, (r[m], j), at)
         low = np.minimum(np.abs(a), np.abs(c))
         grazing = ~change & (low <= margin)
+        if turns is not None:
+            grazing &= turning
         new = []
         if grazing.any():
             q = np.flatnonzero(grazing.any(axis=(1, 2)))     # (the rows that have some)
