@@ -303,9 +303,9 @@ def test_the_sampled_basis_is_the_sine_and_cosine_to_a_few_ulps(w):
 def test_refined_zeros_are_the_true_zeros_to_the_rounding_of_the_function():
     """``_batch_roots.refine`` on random functions ``c + α₀τ + γ₀τ²/2 + α₁ S₁ + γ₁ C₁`` (a rigid
     mode and an elastic one) bracketed round a sign change: each zero is mpmath's to a few ulps
-    of the time plus what the rounding of the function's value (8 ulps of its terms' sizes,
-    where the iterations stop) moves it by, that over the slope; the zeros of a derivative
-    (``rtol=EXTREMUM_RTOL``) to that fraction of the time."""
+    of the time plus what the rounding of the function's value (8 ulps of its terms' sizes)
+    moves it by, that over the slope; the zeros of a derivative (``rtol=EXTREMUM_RTOL``) to
+    that fraction of the time."""
     import mpmath
     from lsc.solvers.exact_chain._batch_modes import Sums
     from lsc.solvers.exact_chain._batch_roots import refine

@@ -224,11 +224,10 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100, rtol: float = 4 * _EPS)
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
     method on the closed-form derivative from the chord's zero (as :func:`._roots._refine`),
     kept inside the bracket (a step that leaves it bisects), until the step is ``rtol`` of
-    the time (or of the bracket's width, for a zero at the start) or the value is rounding
-    (within a few ulps of its terms' sizes). The brackets still open are the only ones
-    computed on. ``rtol``: :data:`._roots.EXTREMUM_RTOL` for the zeros of a derivative, as
-    the single solve's :func:`._roots._refine_many` (the function's value there is off by
-    the square of it)."""
+    the time (or of the bracket's width, for a zero at the start). The brackets still open
+    are the only ones computed on. ``rtol``: :data:`._roots.EXTREMUM_RTOL` for the zeros of a
+    derivative, as the single solve's :func:`._roots._refine_many` (the function's value
+    there is off by the square of it)."""
     fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
@@ -282,7 +281,6 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
             C[:, first:] = np.where(rigid, half_tt, Ce)
         else:
             S[:, first:], C[:, first:] = Se, Ce
-        terms = np.abs(c) + msum(np.abs(al * S) + np.abs(ga * C))
         f = c + msum(al * S + ga * C)
         df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
@@ -290,9 +288,7 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
         new = xl - f / df
         tol = rtol * np.abs(xl) + floor
-        # (a value within a few ulps of its terms' sizes is rounding: its sign says nothing
-        # more, and the iterations stop)
-        zero = np.abs(f) <= 8 * _EPS * terms
+        zero = f == 0
         done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
         new = np.where(inside, new, 0.5 * (lo + hi))
