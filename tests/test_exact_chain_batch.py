@@ -84,26 +84,34 @@ def _single(scene, values, j, **options):
 
 
 def _rounding_response(scene, values, j, name) -> np.ndarray:
-    """How far the single solve's metric ``name`` of member ``j`` moves (per element) when the
-    rear car's speed moves by a relative 1e-14: the member's own amplification of rounding."""
+    """How far the single solve's metric ``name`` of member ``j`` moves (per element) under a
+    relative change of 1e-14 in its data: the larger of what moving the rear car's speed does
+    and what moving every swept mass, alternately up and down, does (a contact whose first
+    impact is over before the rear car reaches it does not feel its speed): the member's own
+    amplification of rounding."""
     member = {path: float(v[j]) for path, v in values.items()}
-    moved = {**member, "vehicles.0.speed": member["vehicles.0.speed"] * (1 + 1e-14)}
-    r, r2 = (exact_chain.solve(HybridModel(scene.with_values(m)), n_samples=2)
-             for m in (member, moved))
-    return np.abs(np.asarray(getattr(r2, name), float) - np.asarray(getattr(r, name), float))
+    masses = {p: x * (1 + (-1) ** i * 1e-14) for i, (p, x) in
+              enumerate((p, x) for p, x in member.items() if p.endswith(".mass"))}
+    probes = [{**member, "vehicles.0.speed": member["vehicles.0.speed"] * (1 + 1e-14)},
+              {**member, **masses}]
+    r = exact_chain.solve(HybridModel(scene.with_values(member)), n_samples=2)
+    want = np.asarray(getattr(r, name), float)
+    return np.max([np.abs(np.asarray(getattr(exact_chain.solve(
+        HybridModel(scene.with_values(m)), n_samples=2), name), float) - want) for m in probes],
+        axis=0)
 
 
 def _differing(scene, values, out) -> list:
     """The members whose batch metrics differ from the single solve's by more than 1e-12 of
     their scale (and the rounding of the positions) and by more than what a relative change
     of 1e-12 in the data does to the single solve (100 times its response to 1e-14 of the
-    rear car's speed, :func:`_rounding_response`); a failing member must have the single
-    solve's message. Both solves are exact to rounding, but not to the same rounding (the
-    modes of stacked matrices, sums in another order, the stops of the root refinements):
-    an ill-conditioned chain (light cars ringing between stiff contacts, tens of events)
-    amplifies those ulps up to 1e7 times. Measured on 400 random 4-car chains: 37 members
-    beyond 1e-12 (v_final up to 2.8e-7 of its scale), each within 80 times its response to
-    1e-14, most within 4 times."""
+    rear car's speed or of the masses, :func:`_rounding_response`); a failing member must
+    have the single solve's message. Both solves are exact to rounding, but not to the same
+    rounding (the modes of stacked matrices, sums in another order, the stops of the root
+    refinements): an ill-conditioned chain (light cars ringing between stiff contacts, tens
+    of events) amplifies those ulps up to 1e7 times. Measured on 400 random 4-car chains: 37
+    members beyond 1e-12 (v_final up to 2.8e-7 of its scale), each within 80 times its
+    response to 1e-14 of the rear car's speed, most within 4 times."""
     differ = []
     for j in range(len(out["status"])):
         r = _single(scene, values, j)
