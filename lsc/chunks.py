@@ -301,11 +301,28 @@ def _finish(item, consume, progress) -> None:
 MALLOC_TRIM = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
 
 
+def _start_method():
+    """The start method of a pool's processes: ``fork`` (the cheapest: no import in the
+    workers) where this process runs no JAX (whose threads a forked child may deadlock on),
+    else ``forkserver`` (workers forked from a clean server process); the platform's default
+    where neither exists (``spawn``)."""
+    import multiprocessing
+    import sys
+
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and "jax" not in sys.modules:
+        return multiprocessing.get_context("fork")
+    if "forkserver" in methods:
+        return multiprocessing.get_context("forkserver")
+    return None
+
+
 @contextmanager
 def executor_from(workers: int | None = None, scheduler: str | None = None,
                   dask: bool = False):
     """The executor the CLI options ask for, closed on exit: ``None`` (this process; also for
-    ``workers=1``), a ``ProcessPoolExecutor`` of ``workers`` processes, or a Dask client: of the
+    ``workers=1``), a ``ProcessPoolExecutor`` of ``workers`` processes (started as
+    :func:`_start_method` says), or a Dask client: of the
     running cluster at ``scheduler`` (``tcp://host:port``), or with ``dask`` of a new
     ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core)."""
     if scheduler is not None and workers is not None:
@@ -317,7 +334,7 @@ def executor_from(workers: int | None = None, scheduler: str | None = None,
             yield None
             return
         from concurrent.futures import ProcessPoolExecutor
-        with ProcessPoolExecutor(workers) as pool:
+        with ProcessPoolExecutor(workers, mp_context=_start_method()) as pool:
             yield pool
         return
     try:

@@ -15,9 +15,10 @@ batch cannot set, a backend with no batch path) the members are solved one by on
 its own settings.
 
 The members are solved in chunks (:mod:`lsc.chunks`), in this process or on an executor (a
-process pool, a Dask cluster), and kept in memory (:class:`SweepResult`) or written to a Parquet
-file as they come (``out=``, :class:`lsc.parquet.SweepFile`): memory then holds a few chunks,
-whatever the number of members.
+process pool, a Dask cluster; ``workers=N`` for a backend whose batch path does not take it as
+its own threads: a pool of N processes), and kept in memory (:class:`SweepResult`) or written
+to a Parquet file as they come (``out=``, :class:`lsc.parquet.SweepFile`): memory then holds a
+few chunks, whatever the number of members.
 """
 
 from __future__ import annotations
@@ -295,8 +296,12 @@ def sweep(scene, params: dict, *, method: str | None = None, grid: bool = False,
     chunk, workers : int, optional
         Batch controls (:data:`lsc.solvers.base.CONTROLS`) of backends whose batch path takes
         them (the batched integrator): most members in one of its batch calls, and batch calls
-        run at once (threads) within one task. Given to a backend whose batch path does not take
-        them, the members are solved one by one. Unset: the backend's defaults.
+        run at once (threads) within one task. ``chunk`` given to a backend whose batch path
+        does not take it: the members are solved one by one. ``workers`` given to a backend
+        whose batch path does not take it (the exact and exact-chain batches, the backends
+        with no batch path): the chunks are solved by that many processes (a
+        ``ProcessPoolExecutor``; 1: this process), the same numbers member for member; not
+        with ``executor``. Unset: the backend's defaults, this process.
     metrics : str or sequence of str, optional
         The metrics kept (names of :data:`lsc.result.METRICS`; default: all).
     out : path, optional
@@ -356,7 +361,7 @@ def study(base: Scene, members, shape: tuple, *, method, options: dict, controls
     """Solve ``members`` (:class:`Arrays`, :class:`Grid` or a sampler: ``n`` and
     ``chunk(start, stop)``) of scene ``base`` in tasks (see :func:`sweep`)."""
     from .api import resolve
-    from .chunks import run_tasks
+    from .chunks import executor_from, run_tasks
 
     start = time.perf_counter()
     names = _metric_names(metrics)
@@ -365,19 +370,22 @@ def study(base: Scene, members, shape: tuple, *, method, options: dict, controls
     model = HybridModel(base)
     name, opts = resolve(base, method, options, model=model, members=n)
     decl = solvers.backend(name)
+    controls, processes = _processes(decl, controls, executor)
     batch_opts = {**{k: v for k, v in opts.items() if k != "n_samples"}, **controls}
     batch = _batch_applies(decl, model, members.chunk(0, 1), batch_opts)
     if not batch:
         name = resolve(base, method, options, model=model)[0]  # what each member's solve picks
-    tasks = _tasks(base, members, (decl.name, batch_opts) if batch else (method, options),
-                   batch, names, task_size, executor)
     bar = _progress(n, progress)
     try:
-        if out is None:
-            sink = _Memory(base, n, names)
-            run_tasks(tasks, sink, executor=executor, progress=bar.update)
-        else:
-            sink = _write_parquet(out, overwrite, tasks, base, name, shape, executor, bar)
+        with executor_from(processes) as pool:
+            executor = pool if pool is not None else executor
+            tasks = _tasks(base, members, (decl.name, batch_opts) if batch else (method, options),
+                           batch, names, task_size, executor)
+            if out is None:
+                sink = _Memory(base, n, names)
+                run_tasks(tasks, sink, executor=executor, progress=bar.update)
+            else:
+                sink = _write_parquet(out, overwrite, tasks, base, name, shape, executor, bar)
     finally:
         bar.close()
     stats = {"wall_time": time.perf_counter() - start, "members": n}
@@ -467,6 +475,19 @@ def _check_count(name: str, value) -> None:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
             or value < 1:
         raise SceneError(name, f"{name} must be a positive integer, got {value!r}")
+
+
+def _processes(decl, controls: dict, executor):
+    """``(controls, processes)``: ``workers`` for a backend whose batch path does not take it is
+    the number of processes solving the chunks (None or 1: this process), out of the controls;
+    a ``SceneError`` beside an ``executor`` (which has its own workers)."""
+    if "workers" not in controls or "workers" in decl.batch_options:
+        return controls, None
+    if executor is not None:
+        raise SceneError("workers", f"workers sets the processes of this machine that solve "
+                                    f"the chunks ({decl.name}); an executor runs them on the "
+                                    f"workers it has: give one or the other")
+    return {k: v for k, v in controls.items() if k != "workers"}, controls["workers"]
 
 
 def _batch_applies(decl, model: HybridModel, values: dict, options: dict) -> bool:

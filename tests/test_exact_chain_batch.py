@@ -83,21 +83,35 @@ def _single(scene, values, j, **options):
         return f"SimulationError: {err}"
 
 
-#: Members allowed to differ from the single solve by more than 1e-12 per chain length (none
-#: in the default run). Both solves are exact to rounding, but not to the same rounding (the
-#: modes of stacked matrices, sums in another order): over a long sequence of events in an
-#: ill-conditioned chain the ulps grow to 1e-11 of a final speed or restitution, and a contact
-#: left at its permanent set to within the rounding of the positions, pushed shut at 1e-11
-#: ft/s, is touching now for one solve and microseconds later for the other (the sign of a gap
-#: of 1e-17 ft), which can move which impact a vehicle's ΔV is read from (by 1e-7 of the
-#: speeds). --hard (40 members per length) meets 3 such members among its 4-car chains.
-ROUNDING_CASES = 3 if HARD else 0
+def _rounding_response(scene, values, j, name) -> np.ndarray:
+    """How far the single solve's metric ``name`` of member ``j`` moves (per element) under a
+    relative change of 1e-14 in its data: the larger of what moving the rear car's speed does
+    and what moving every swept mass, alternately up and down, does (a contact whose first
+    impact is over before the rear car reaches it does not feel its speed): the member's own
+    amplification of rounding."""
+    member = {path: float(v[j]) for path, v in values.items()}
+    masses = {p: x * (1 + (-1) ** i * 1e-14) for i, (p, x) in
+              enumerate((p, x) for p, x in member.items() if p.endswith(".mass"))}
+    probes = [{**member, "vehicles.0.speed": member["vehicles.0.speed"] * (1 + 1e-14)},
+              {**member, **masses}]
+    r = exact_chain.solve(HybridModel(scene.with_values(member)), n_samples=2)
+    want = np.asarray(getattr(r, name), float)
+    return np.max([np.abs(np.asarray(getattr(exact_chain.solve(
+        HybridModel(scene.with_values(m)), n_samples=2), name), float) - want) for m in probes],
+        axis=0)
 
 
 def _differing(scene, values, out) -> list:
     """The members whose batch metrics differ from the single solve's by more than 1e-12 of
-    their scale (and the rounding of the positions); a failing member must have the single
-    solve's message."""
+    their scale (and the rounding of the positions) and by more than what a relative change
+    of 1e-12 in the data does to the single solve (100 times its response to 1e-14 of the
+    rear car's speed or of the masses, :func:`_rounding_response`); a failing member must
+    have the single solve's message. Both solves are exact to rounding, but not to the same
+    rounding (the modes of stacked matrices, sums in another order, the stops of the root
+    refinements): an ill-conditioned chain (light cars ringing between stiff contacts, tens
+    of events) amplifies those ulps up to 1e7 times. Measured on 400 random 4-car chains: 37
+    members beyond 1e-12 (v_final up to 2.8e-7 of its scale), each within 80 times its
+    response to 1e-14 of the rear car's speed, most within 4 times."""
     differ = []
     for j in range(len(out["status"])):
         r = _single(scene, values, j)
@@ -112,6 +126,9 @@ def _differing(scene, values, out) -> list:
                 continue
             scale = np.nanmax(np.abs(getattr(r, SCALE_OF.get(name, name))))
             tol = 1e-12 * scale + rounding(r).get(name, 0.0)
+            if np.all((np.abs(got - want) <= tol) | np.isnan(want)):
+                continue
+            tol = tol + 100 * _rounding_response(scene, values, j, name)
             if not np.all((np.abs(got - want) <= tol) | np.isnan(want)):
                 differ.append((j, name, want, got))
     return differ
@@ -120,8 +137,23 @@ def _differing(scene, values, out) -> list:
 @pytest.mark.parametrize("N, seed", [(3, 1), (4, 2), (5, 3)])
 def test_batch_is_the_single_solve_member_by_member(N, seed):
     scene, values = random_chains(N, MEMBERS, seed, e_min=0.05)
-    differ = _differing(scene, values, exact_chain.solve_batch(HybridModel(scene), values))
-    assert len({d[0] for d in differ}) <= ROUNDING_CASES, differ
+    assert _differing(scene, values, exact_chain.solve_batch(HybridModel(scene), values)) == []
+
+
+def test_an_ill_conditioned_member_agrees_to_its_rounding_response():
+    """Light middle cars (56 and 68 lb) between stiff contacts, 79 events: the batch's and the
+    single solve's final speeds part by about 2e-7 ft/s, far beyond 1e-12 of the speeds, while
+    a relative change of 1e-14 in the rear car's speed moves the single solve's by as much: the
+    chain amplifies rounding some 1e7 times, and the two agree to what a change of 1e-12 in
+    the data does."""
+    scene, values = random_chains(4, 400, 2, e_min=0.05)
+    one = {path: v[106:107] for path, v in values.items()}
+    out = exact_chain.solve_batch(HybridModel(scene), one)
+    r = _single(scene, one, 0)
+    dv = np.max(np.abs(out["metrics"]["v_final"][0] - r.v_final))
+    scale = np.max(np.abs(r.v_final))
+    assert len(r.events) > 50 and dv > 1e-10 * scale
+    assert dv <= 1e-12 * scale + 100 * np.max(_rounding_response(scene, one, 0, "v_final"))
 
 
 def test_unloading_by_stiffness_is_the_single_solve_member_by_member():
@@ -274,3 +306,53 @@ def test_the_sampled_basis_is_the_sine_and_cosine_to_a_few_ulps(w):
         assert abs(s - s_want) <= 8e-16 * (abs(s_want) + abs(x * mpmath.cos(x)) / w), t
         assert abs(c - c_want) <= 8e-16 * (abs(c_want) + abs(x * s_want) / w) + 1e-300, t
     assert np.all(S[0, :, 0] == tau) and np.all(C[0, :, 0] == 0.5 * tau * tau)
+
+
+def test_refined_zeros_are_the_true_zeros_to_the_rounding_of_the_function():
+    """``_batch_roots.refine`` on random functions ``c + α₀τ + γ₀τ²/2 + α₁ S₁ + γ₁ C₁`` (a rigid
+    mode and an elastic one) bracketed round a sign change: each zero is mpmath's to a few ulps
+    of the time plus what the rounding of the function's value (8 ulps of its terms' sizes)
+    moves it by, that over the slope; the zeros of a derivative (``rtol=EXTREMUM_RTOL``) to
+    that fraction of the time."""
+    import mpmath
+    from lsc.solvers.exact_chain._batch_modes import Sums
+    from lsc.solvers.exact_chain._batch_roots import refine
+    from lsc.solvers.exact_chain._roots import EXTREMUM_RTOL
+
+    rng = np.random.default_rng(4)
+    n = 200
+    w = np.stack([np.zeros(n), 10 ** rng.uniform(0, 4, n)], axis=1)
+    alpha, gamma = rng.normal(size=(n, 1, 2)), rng.normal(size=(n, 1, 2)) * w[:, None, :]
+    # (a zero at 0.2 to 0.8 of a bracket of up to a radian of the elastic mode)
+    a = np.zeros(n)
+    b = rng.uniform(0.05, 1.0, n) / w[:, 1]
+    zero = rng.uniform(0.2, 0.8, n) * b
+    g = Sums(np.zeros((n, 1)), alpha, gamma, w * w, w)
+    c = -g.each_at(zero[:, None])
+    g = Sums(c, alpha, gamma, w * w, w)
+    fa, fb = g.each_at(a[:, None])[:, 0], g.each_at(b[:, None])[:, 0]
+    ok = fa * fb < 0
+    assert ok.sum() > 100
+    mpmath.mp.prec = 120
+
+    def value(j, t, slope=False):
+        t, om = mpmath.mpf(t), mpmath.mpf(w[j, 1])
+        S, C = mpmath.sin(om * t) / om, 2 * (mpmath.sin(om * t / 2) / om) ** 2
+        if slope:
+            return alpha[j, 0, 0] + gamma[j, 0, 0] * t + alpha[j, 0, 1] * (1 - om ** 2 * C) \
+                + gamma[j, 0, 1] * S
+        return c[j, 0] + alpha[j, 0, 0] * t + gamma[j, 0, 0] * t * t / 2 + alpha[j, 0, 1] * S \
+            + gamma[j, 0, 1] * C
+
+    r = np.flatnonzero(ok)
+    for rtol in (4 * np.finfo(float).eps, EXTREMUM_RTOL):
+        got = refine(g.take(r), a[r], b[r], fa[r], fb[r], rtol=rtol)
+        for j, t in zip(r, got):
+            want = mpmath.findroot(lambda x: value(j, x), mpmath.mpf(zero[j]))
+            x = float(want)
+            S, C = np.sin(w[j, 1] * x) / w[j, 1], (1 - np.cos(w[j, 1] * x)) / w[j, 1] ** 2
+            terms = (abs(c[j, 0]) + abs(alpha[j, 0, 0] * x) + abs(gamma[j, 0, 0]) * x * x / 2
+                     + abs(alpha[j, 0, 1] * S) + abs(gamma[j, 0, 1] * C))
+            slope = abs(float(value(j, want, slope=True)))
+            allowed = rtol * b[j] + 8 * np.finfo(float).eps * (abs(x) + terms / slope)
+            assert abs(t - float(want)) <= allowed, (j, t, float(want), allowed)

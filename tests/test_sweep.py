@@ -254,6 +254,59 @@ def test_diffrax_sweep_chunks_and_workers_do_not_change_the_answer():
                            equal_nan=True), name
 
 
+def test_exact_chain_sweep_workers_spread_the_batch_over_processes(monkeypatch):
+    """``workers=2`` on a backend whose batch path takes no ``workers`` (exact-chain): the
+    chunks go to its batch on a pool of two processes (it solved them one by one in this
+    process), with the numbers and statuses of ``workers=1``, bit for bit; beside an
+    ``executor`` it is refused."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from lsc import chunks
+    from test_exact_chain_batch import random_chains
+
+    scene, values = random_chains(3, 200, 11, 0.05)
+    submitted = []
+    submit = chunks._submit
+
+    def spy(executor, task):
+        submitted.append((type(executor), task.batch, len(task)))
+        return submit(executor, task)
+
+    monkeypatch.setattr(chunks, "_submit", spy)
+    one = lsc.sweep(scene, values, method="exact-chain", workers=1, progress=False)
+    assert submitted == []
+    two = lsc.sweep(scene, values, method="exact-chain", workers=2, progress=False)
+    assert submitted == [(ProcessPoolExecutor, True, 100)] * 2
+    assert one.method == two.method == "exact-chain" and one.ok.sum() > 190
+    assert np.array_equal(one.status, two.status)
+    for name in SWEEP_METRICS:
+        assert np.array_equal(getattr(one, name), getattr(two, name), equal_nan=True), name
+    with ProcessPoolExecutor(1) as pool, pytest.raises(lsc.SceneError) as e:
+        lsc.sweep(scene, values, method="exact-chain", workers=2, executor=pool)
+    assert str(e.value) == ("workers: workers sets the processes of this machine that solve the "
+                            "chunks (exact-chain); an executor runs them on the workers it has: "
+                            "give one or the other")
+
+
+def test_worker_pools_are_not_forked_from_a_process_running_jax(monkeypatch):
+    """``workers=`` (and the CLI's ``--workers``) forks its processes, the cheapest start, but
+    not once JAX is imported: a forked child of a process with JAX's threads can deadlock
+    (Python warns of it), so the pool then starts from a fork server. (JAX's presence is what
+    ``sys.modules`` says: set and unset here, not imported.)"""
+    import types
+
+    from lsc.chunks import executor_from
+
+    def method():
+        with executor_from(2) as pool:
+            return pool._mp_context.get_start_method()
+
+    monkeypatch.delitem(sys.modules, "jax", raising=False)
+    assert method() == "fork"
+    monkeypatch.setitem(sys.modules, "jax", types.ModuleType("jax"))
+    assert method() == "forkserver"
+
+
 def test_cli_sweep_with_diffrax(tmp_path, capsys):
     pytest.importorskip("diffrax")
     from lsc.cli import main

@@ -302,13 +302,15 @@ class _Batch:
         turns = loaded & ~monotone
         pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
         wild = (np.abs(inc) @ turns.T.astype(int)) > 0
-        search = turns.any(axis=1) | ((pushed > 1) | wild).any(axis=0)
+        want = np.concatenate([turns, ((pushed > 1) | wild).T], axis=1)     # (m, K + N - 2)
+        search = want.any(axis=1)
         end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
         top, bottom = np.maximum(c, end), np.minimum(c, end)
         undecided = np.zeros(r.size, bool)
         if search.any():
             q = np.flatnonzero(search)
-            top[q], bottom[q], undecided[q] = extreme_values(series.take(q), tau[q], largest)
+            top[q], bottom[q], undecided[q] = extreme_values(series.take(q), tau[q], largest,
+                                                             want[q])
         signed = np.where(np.abs(top) >= np.abs(bottom), top, bottom)
         # (contact 0 pushes vehicle 0 back, contact K - 1 pushes vehicle N - 1 forward)
         return np.concatenate([top[:, :K], -signed[:, :1] / m[:, :1], signed[:, K:],

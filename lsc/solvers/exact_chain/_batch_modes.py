@@ -13,6 +13,7 @@ slopes >= 0 occur (straight loading and unloading lines), so no mode is hyperbol
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -58,13 +59,13 @@ def _sin_cos(h, ws):
     return two_sw * np.cos(h), two_sw * sw
 
 
-def basis(w, tau, exact=False):
+def basis(w, tau, exact=False, stacked=False):
     """``S, C`` (..., n) at times ``tau`` (...) [s] for the modes of angular frequency ``w``
     (..., n) [1/s] (0: rigid), from half angles (:func:`half_angle`; ``exact``: from their sine
     and cosine, as the single solve, for the few times whose values are kept: the states at the
-    events, each function at its own time). (Mode 0 is rigid in every member of a chain, the
-    translation of the group of its first vehicle (:func:`_modes`): where it is, its sines are
-    not computed.)"""
+    events, each function at its own time); ``stacked``: as one array ``[S, C]`` (..., 2n).
+    (Mode 0 is rigid in every member of a chain, the translation of the group of its first
+    vehicle (:func:`_modes`): where it is, its sines are not computed.)"""
     tau = np.asarray(tau, float)[..., None]
     first = 1 if w.shape[-1] > 1 and not w[..., 0].any() else 0
     we = w[..., first:]
@@ -76,15 +77,23 @@ def basis(w, tau, exact=False):
     if some_rigid:
         np.copyto(Se, tau, where=rigid)
         np.copyto(Ce, 0.5 * tau * tau, where=rigid)
-    if not first:
+    if not first and not stacked:
         return Se, Ce
-    S = np.empty(Se.shape[:-1] + (w.shape[-1],))
-    C = np.empty_like(S)
+    n = w.shape[-1]
+    if stacked:
+        SC = np.empty(Se.shape[:-1] + (2 * n,))
+        S, C = SC[..., :n], SC[..., n:]
+    else:
+        S = np.empty(Se.shape[:-1] + (n,))
+        C = np.empty_like(S)
+    if not first:
+        S[...], C[...] = Se, Ce
+        return SC
     S[..., 0] = tau[..., 0]
     np.multiply(0.5 * tau[..., 0], tau[..., 0], out=C[..., 0])
     S[..., 1:] = Se
     C[..., 1:] = Ce
-    return S, C
+    return SC if stacked else (S, C)
 
 
 @dataclass
@@ -105,16 +114,23 @@ class Sums:
 
     def at(self, tau):
         """``g`` (b, F, T) at times ``tau`` (b, T) of each member."""
-        return self.on(*self.basis(tau))
+        return self.on(self.basis(tau))
 
     def basis(self, tau):
-        """``S, C`` (b, T, n) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
-        return basis(self.w[:, None, :], tau)
+        """``[S, C]`` (b, T, 2n) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
+        return basis(self.w[:, None, :], tau, stacked=True)
 
-    def on(self, S, C):
-        """``g`` (b, F, T) on the basis ``S, C`` (b, T, n) of :meth:`basis`."""
-        return (self.c[:, :, None] + np.matmul(self.alpha, np.swapaxes(S, 1, 2))
-                + np.matmul(self.gamma, np.swapaxes(C, 1, 2)))
+    @cached_property
+    def coefficients(self):
+        """``[α, γ]`` (b, F, 2n): the coefficients of the basis of :meth:`basis`."""
+        return np.concatenate([self.alpha, self.gamma], axis=2)
+
+    def on(self, SC):
+        """``g`` (b, F, T) on the basis ``[S, C]`` (b, T, 2n) of :meth:`basis` (one product:
+        NumPy's stacked products of small matrices cost mostly their count)."""
+        out = np.matmul(self.coefficients, np.swapaxes(SC, 1, 2))
+        out += self.c[:, :, None]
+        return out
 
     def each_at(self, tau):
         """``g`` (b, F) at one time per function ``tau`` (b, F)."""

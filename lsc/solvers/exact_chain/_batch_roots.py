@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, msum
-from ._roots import PER_RADIAN, TOUCH
+from ._batch_modes import Sums, half_angle, msum
+from ._roots import EXTREMUM_RTOL, PER_RADIAN, TOUCH
 
 __all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
 
@@ -219,12 +219,15 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
 F_BIG = np.iinfo(np.int64).max
 
 
-def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
+def refine(g: Sums, a, b, fa, fb, iterations: int = 100, rtol: float = 4 * _EPS):
     """The zero (m,) of each single function ``g`` (m, 1) in its bracket ``[a, b]`` where it
     changes sign (``fa, fb`` its values at the ends), to a few ulps of the time: Newton's
-    method on the closed-form derivative, kept inside the bracket (a step that leaves it
-    bisects), until the step is a few ulps of the time (or of the bracket's width, for a zero
-    at the start). The brackets still open are the only ones computed on."""
+    method on the closed-form derivative from the chord's zero (as :func:`._roots._refine`),
+    kept inside the bracket (a step that leaves it bisects), until the step is ``rtol`` of
+    the time (or of the bracket's width, for a zero at the start). The brackets still open
+    are the only ones computed on. ``rtol``: :data:`._roots.EXTREMUM_RTOL` for the zeros of a
+    derivative, as the single solve's :func:`._roots._refine_many` (the function's value
+    there is off by the square of it)."""
     fa, fb = np.asarray(fa), np.asarray(fb)
     a, b = np.array(a, float), np.array(b, float)
     x = np.where(np.abs(fa) < np.abs(fb), a, b)
@@ -240,49 +243,51 @@ def refine(g: Sums, a, b, fa, fb, iterations: int = 100):
     first = 1 if w.shape[1] > 1 and not w[:, 0].any() else 0
     rigid = w[:, first:] == 0
     ws = np.where(rigid, 1.0, w[:, first:])
-    half = 0.5 * ws
+    half, inv = 0.5 * ws, 1.0 / ws
     S, C = np.empty(w.shape), np.empty(w.shape)
     sign = np.where(fa[live] > 0, 1.0, -1.0)[:, None]
     al, ga = sign * g.alpha[live, 0], sign * g.gamma[live, 0]
     kal = g.kappa[live] * al
     c = sign[:, 0] * g.c[live, 0]
-    lo, hi, xl = a[live], b[live], x[live]
-    floor = _EPS * (hi - lo)
+    lo, hi = a[live], b[live]
+    # (Newton's start: the chord's zero, inside the bracket)
+    with np.errstate(all="ignore"):
+        fl, fh = fa[live], fb[live]
+        xl = np.clip(lo - fl * ((hi - lo) / (fh - fl)), lo, hi)
+    xl = np.where(np.isfinite(xl), xl, x[live])
+    floor = max(0.25 * rtol, _EPS) * (hi - lo)
     # the state two steps back: a step that comes back to it (a cycle between two floats
     # round the zero, where the function is rounding) repeats for good, so the state the last
     # step would leave is known at once (by the parity of the steps left)
     back = (np.full(live.size, np.nan),) * 3
     some_rigid = bool(rigid.any())
     with np.errstate(all="ignore"):
-        return _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c,
-                       lo, hi, xl, floor, back, S, C)
+        return _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, kal, c,
+                       lo, hi, xl, floor, back, S, C, rtol)
 
 
-def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal, c, lo, hi, xl,
-            floor, back, S, C):
+def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, kal, c, lo, hi, xl,
+            floor, back, S, C, rtol):
     """The iterations of :func:`refine` (its arrays; ``x`` filled in and returned)."""
     act = np.ones(live.size, bool)     # (the brackets still open)
     for k in range(iterations):
         x_k = xl
         tau = xl[:, None]
-        hx = half * tau
-        sw = np.sin(hx) / ws
-        two_sw = 2.0 * sw
+        Se, Ce = half_angle(half * tau, inv)
         half_tt = 0.5 * tau * tau
         S[:, :first], C[:, :first] = tau, half_tt
         if some_rigid:
-            S[:, first:] = np.where(rigid, tau, two_sw * np.cos(hx))
-            C[:, first:] = np.where(rigid, half_tt, two_sw * sw)
+            S[:, first:] = np.where(rigid, tau, Se)
+            C[:, first:] = np.where(rigid, half_tt, Ce)
         else:
-            np.multiply(two_sw, np.cos(hx, out=hx), out=S[:, first:])
-            np.multiply(two_sw, sw, out=C[:, first:])
+            S[:, first:], C[:, first:] = Se, Ce
         f = c + msum(al * S + ga * C)
         df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
         state = (xl, lo, hi)
         lo, hi = np.where(pos, xl, lo), np.where(pos, hi, xl)
         new = xl - f / df
-        tol = 4 * _EPS * np.abs(xl) + floor
+        tol = rtol * np.abs(xl) + floor
         zero = f == 0
         done = zero | (np.abs(new - xl) <= tol) | (hi - lo <= tol)
         inside = (new >= lo) & (new <= hi) & np.isfinite(new)
@@ -306,8 +311,8 @@ def _newton(x, live, iterations, first, some_rigid, rigid, ws, half, al, ga, kal
                 return x
             if 2 * n_act <= act.size:
                 keep = act
-                live, rigid, ws, half, al, ga, kal, c, S, C = (
-                    live[keep], rigid[keep], ws[keep], half[keep], al[keep], ga[keep],
+                live, rigid, inv, half, al, ga, kal, c, S, C = (
+                    live[keep], rigid[keep], inv[keep], half[keep], al[keep], ga[keep],
                     kal[keep], c[keep], S[keep], C[keep])
                 lo, hi, xl, floor = lo[keep], hi[keep], xl[keep], floor[keep]
                 back = tuple(a[keep] for a in back)
@@ -347,7 +352,7 @@ FLAT = 1e-14
 PEAK_LEVELS = 6
 
 
-def extreme_values(g: Sums, T, largest):
+def extreme_values(g: Sums, T, largest, turns=None):
     """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
     values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
     ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
@@ -359,7 +364,9 @@ def extreme_values(g: Sums, T, largest):
     below :data:`FLAT` of the function's size, or where the derivative is provably monotone on
     it (a bound on the next derivative), else sampled again :data:`WINDOW` times finer, up to
     :data:`PEAK_LEVELS` times; a member with an interval still not cleared is *undecided* (the
-    caller solves it alone)."""
+    caller solves it alone). ``turns`` (b, F) bool, optional: the functions that may turn
+    inside ``[0, T]``; the others are monotone (their extremes are at the ends, among the
+    samples), and neither their derivative's zeros nor its grazing intervals are searched."""
     b, F = g.c.shape
     d = g.derivative()
     dd = d.derivative()
@@ -386,8 +393,8 @@ def extreme_values(g: Sums, T, largest):
         count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
         tt, end = _windows(lo, hi, h, first, count)
         gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
-        S, C = gl.basis(tt)
-        vals, dv = gl.on(S, C), dl.on(S, C)
+        SC = gl.basis(tt)
+        vals, dv = gl.on(SC), dl.on(SC)
         if k == 0:     # (r: every member once)
             np.fmax(top, np.max(vals, axis=2), out=top)
             np.fmin(bottom, np.min(vals, axis=2), out=bottom)
@@ -398,6 +405,9 @@ def extreme_values(g: Sums, T, largest):
         w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
         margin = Bd[r][:, :, None] * w ** 2 / 8.0
         change = (a * c <= 0) & (a != c)
+        if turns is not None:
+            turning = turns[r][:, :, None]
+            change &= turning
         if change.any():
             # (a zero of g' whose value cannot beat the peak so far need not be refined:
             # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
@@ -409,19 +419,22 @@ def extreme_values(g: Sums, T, largest):
             tm, bm = top[r[m], j], bottom[r[m], j]
             peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
             m, j, i = (x[~(reach < peak)] for x in (m, j, i))
-            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i])
+            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
+                           rtol=EXTREMUM_RTOL)
             at = gl.take(m, j).each_at(roots[:, None])[:, 0]
             np.fmax.at(top, (r[m], j), at)
             np.fmin.at(bottom, (r[m], j), at)
         low = np.minimum(np.abs(a), np.abs(c))
         grazing = ~change & (low <= margin)
+        if turns is not None:
+            grazing &= turning
         new = []
         if grazing.any():
             q = np.flatnonzero(grazing.any(axis=(1, 2)))     # (the rows that have some)
             rq, wq = r[q], w[q]
             size = np.maximum(np.abs(top[rq]), np.abs(bottom[rq]))[:, :, None]
             excess = wq * (margin[q] - low[q])
-            ddv = dd.take(rq).on(S[q], C[q])
+            ddv = dd.take(rq).on(SC[q])
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
                                       > Bdd[rq][:, :, None] * wq ** 2 / 8.0)
