@@ -64,16 +64,13 @@ def test_diffrax_locks_where_scipy_locks(scene):
 
 #: CHATTERING_CHAINS[4]'s contact 1 (e = 1e-6) rebounds on a line of 5.4e18 lbf/ft, 7e-16 ft
 #: wide, 167 ft from where the cars started: one ulp of the absolute positions (2.8e-14 ft) is
-#: 1.5e5 lbf on that line. Diffrax's Result reports a peak force of 3.09e5 lbf there (SciPy
-#: and the event rows: F_max = 3891.5 lbf); the sampled series holds no such value (a
-#: resolution limit of the peaks searched inside segments, not of the locks: open).
-POSITION_ROUNDED = pytest.mark.xfail(strict=True, reason="peak force on a line stiffer than "
-                                     "the absolute positions resolve (see POSITION_ROUNDED)")
-
-
-@pytest.mark.parametrize("scene", [
-    _pushed(2e6), pytest.param(CHATTERING_CHAINS[4], marks=POSITION_ROUNDED), _pushed(2e5, 0.03)],
-    ids=["pushed-pair", "e1e-6-gaps", "counted"])
+#: 1.5e5 lbf on that line. diffrax's Result reported a peak force of 3.09e5 lbf there (SciPy
+#: and the event rows: F_max = 3891.5 lbf), found inside a segment on its dense output; a rise
+#: above the segment's ends within the positions' rounding is no peak now
+#: (lsc.solvers.segments._rounding_floor). So is _pushed(2e6) at e = 1e-6 (2814 for 2370 lbf).
+@pytest.mark.parametrize("scene", [_pushed(2e6), CHATTERING_CHAINS[4], _pushed(2e5, 0.03),
+                                   _pushed(2e6, 1e-6)],
+                         ids=["pushed-pair", "e1e-6-gaps", "counted", "pushed-e1e-6"])
 def test_peak_forces_against_scipy(scene):
     r = lsc.solve(scene, method="diffrax", rtol=RTOL)
     ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)

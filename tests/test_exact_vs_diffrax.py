@@ -101,5 +101,11 @@ def test_exact_chain_matches_the_tightest_diffrax_solve_on_random_chains(scene):
         scale = _scale(ex, name)
         if not np.isfinite(scale):   # (NaN where a contact never touched, or was pushed shut)
             scale = np.max(np.abs(a[np.isfinite(a)]), initial=0.0)
+        if name.startswith("peak_acceleration"):
+            # (a middle car's is the difference of its two contacts' forces over its mass: on
+            # their scale, 10 ft/s² where the difference peaked at 1.78)
+            pushes = np.max(np.maximum(np.r_[0.0, ex.peak_force], np.r_[ex.peak_force, 0.0])
+                            / ex.scene.masses)
+            scale = max(scale, pushes / (ex.scene.g if name.endswith("_g") else 1.0))
         tol = (1e-9 if name.startswith("peak") else 1e-10) * scale
         np.testing.assert_allclose(a, b, rtol=0, atol=tol, equal_nan=True, err_msg=name)
