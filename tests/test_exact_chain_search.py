@@ -76,3 +76,50 @@ def test_a_touching_contact_pushed_through_soft_contacts_fires_at_once(behind):
     up = motion.deformation(behind, 0.0)
     later = _start(up, tol, omega, math.inf)
     assert later is not None and 0.0 < later <= 1.0 / omega
+
+
+class _Counted(RuntimeError):
+    """More evaluations than the test allows (the old search halved on, millions of them)."""
+
+
+@pytest.mark.parametrize("behind,s", [(2, 10.0), (3, 10.0), (3, 30.0)])
+def test_a_function_leaving_its_surface_as_a_high_power_is_searched_in_few_evaluations(
+        monkeypatch, behind, s):
+    """The deformation of a contact touching at rest, ``behind`` soft contacts (slope ``s``)
+    from the rear car, leaves its surface as ``τ^(2j+1)``: searched from where the restart rule
+    (``_start``) lets it go, over the first windows of the segment (model's time scale 1e-4 s,
+    as beside a stiff pair), no crossing, as a dense sampling shows; in a few hundred
+    evaluations of the series (the chord's bound alone halved each window down to
+    ``sqrt(8 g / B)``: millions, 15-50 s a segment). (Near the start the function is below
+    its rounding: the dense samples only within it of zero.)"""
+    from lsc.solvers.exact_chain import _roots
+    from lsc.solvers.exact_chain._modes import Motion, Series, deformation_map
+    from lsc.solvers.exact_chain._solve import START_TOL, _start
+
+    N, omega = behind + 2, 1e4
+    slope = np.array([s] * behind + [0.0])
+    motion = Motion(np.ones(N), np.zeros(N), np.r_[1.0, np.zeros(N - 1)], slope,
+                    np.zeros(N - 1), -deformation_map(N).T)
+    up = motion.deformation(behind, 0.0)
+    start = _start(up, START_TOL / omega, omega, math.inf)
+    assert start is not None and 0.0 < start <= 1.0 / omega
+    fast = motion.modes.fastest()
+    tt = np.linspace(start, 4 * math.pi / fast, 200_001)
+    S, C = motion.modes.basis(tt)
+    rounding = 64 * np.finfo(float).eps * (np.abs(S) @ np.abs(up.alpha) + np.abs(C) @ np.abs(up.gamma))
+    assert np.all(up(tt) > -rounding)   # (no crossing over the windows searched)
+    calls, call = [0], Series.__call__
+
+    def counted(self, tau):
+        calls[0] += 1
+        if calls[0] > 500:
+            raise _Counted
+        return call(self, tau)
+
+    monkeypatch.setattr(Series, "__call__", counted)
+    lo, window = 0.0, 2 * math.pi / fast
+    while lo < 4 * math.pi / fast:   # (the segment's windows, as _solve._earliest takes them)
+        hi = min(lo + window, 4 * math.pi / fast)
+        assert _roots.earliest([up], lo, hi, [max(start, lo)]) == (None, None)
+        lo, window = hi, 2 * window
+    assert calls[0] <= 500
