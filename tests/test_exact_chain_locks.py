@@ -245,12 +245,36 @@ def _far_push(k_soft: float, k_stiff: float) -> dict:
                 "gap": 0.0}]}
 
 
-def test_a_contact_pushed_through_soft_contacts_beside_a_stiff_pair_agrees_with_scipy():
-    """(contact 3 closed only at the stiff pair's separation, 115 ms late on the old restart
-    rule: ΔV 1.7e-5 of the closing speed off SciPy's)"""
-    scene = _far_push(1e2, 1e7)
+def _without_first_closings(r, contacts) -> list:
+    """The events of ``r`` but the first closing of each of ``contacts``."""
+    out, closed = [], set()
+    for e in r.events:
+        if e.kind.split("+")[0] == "contact" and e.index in contacts and e.index not in closed:
+            closed.add(e.index)
+            continue
+        out.append((e.kind, e.index))
+    return out
+
+
+@pytest.mark.parametrize("k_soft,k_stiff", [(1e2, 1e7), (1e2, 1e8), (10.0, 1e8), (10.0, 1e7)])
+def test_a_contact_pushed_through_soft_contacts_beside_a_stiff_pair_agrees_with_scipy(
+        k_soft, k_stiff):
+    """Every contact touching at rest closes at t = 0 (pushed through up to three soft
+    contacts: its deformation grows as ``τ^7``), and but for those closings (SciPy's sees them
+    when their growth reaches its rounding, ms later) the events and metrics are SciPy's.
+    (On the old restart rule contact 3 closed only at the stiff pair's separation, 115 ms
+    late: ΔV 1.7e-5 of the closing speed off SciPy's; then, its rounding judged by the stiff
+    pair's mode, 1.15 ms late at k_stiff = 1e8, and contacts 2 and 3 0.17 ms late at
+    k_soft = 10; at k_soft = 10 one segment's search took 15 s.)"""
+    scene = _far_push(k_soft, k_stiff)
     exact = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
     ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)
-    assert _events(exact) == _events(ref)
+    touching = {0, 1, 2, 3, 5}
+    firsts = {}
+    for e in exact.events:
+        if e.kind.split("+")[0] == "contact":
+            firsts.setdefault(e.index, e.time)
+    assert all(firsts[k] == 0.0 for k in touching), firsts
+    assert _without_first_closings(exact, touching) == _without_first_closings(ref, touching)
     check_agrees(ref, exact)
     check_result(exact)
