@@ -123,3 +123,29 @@ def test_a_function_leaving_its_surface_as_a_high_power_is_searched_in_few_evalu
         assert _roots.earliest([up], lo, hi, [max(start, lo)]) == (None, None)
         lo, window = hi, 2 * window
     assert calls[0] <= 500
+
+
+@pytest.mark.parametrize("k_stiff", [1e7, 1e8])
+def test_a_contact_pushed_through_soft_contacts_fires_at_once_beside_a_stiff_pair(k_stiff):
+    """The same contact, three soft contacts (1e3) from the rear car, while ahead of it, beyond
+    an open contact, a stiff pair (``k_stiff``, sqrt(2 k) rad/s) rings: the pair's modes do not
+    enter the contact's deformation (exactly: no closed contact joins them), so its seventh
+    derivative is judged by the soft modes' rounding and the function fires at once (the
+    segment's fastest mode, the pair's, hid it: the contact closed 0.17-1.2 ms late)."""
+    from lsc.solvers.exact_chain._modes import Motion, deformation_map
+    from lsc.solvers.exact_chain._solve import START_TOL, _start
+
+    behind, s = 3, 1e3
+    N = behind + 4
+    slope = np.array([s] * behind + [0.0, 0.0, k_stiff])
+    v0 = np.r_[1.0, np.zeros(behind + 1), 0.5, 0.0]
+    force = np.r_[np.zeros(behind + 2), 1e-3 * k_stiff]   # (the pair pressed)
+    motion = Motion(np.ones(N), np.zeros(N), v0, slope, force, -deformation_map(N).T)
+    omega = motion.modes.fastest()
+    assert omega == pytest.approx(math.sqrt(2 * k_stiff))
+    down = motion.deformation(behind, 0.0, -1.0)   # hi - D, at hi
+    p = 2 * behind + 1
+    terms = down.derivatives_from_zero()
+    d = [next(terms) for _ in range(p + 1)]
+    assert d[p] == pytest.approx(-s ** behind, rel=1e-9)
+    assert _start(down, START_TOL / omega, omega, math.inf) == 0.0

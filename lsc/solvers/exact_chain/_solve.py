@@ -97,7 +97,6 @@ class _Chain:
         self.length = model.v_scale * self.t_scale
         self.records = []   # (t0, motion, force at the start, length, loading contacts)
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
-        self.reach = {}   # |M⁻¹ Cᵀ diag(s) C| of each set of active slopes (:meth:`_reach`)
         self.ends = []    # the state at the start and at the end of each segment
         self.parts = model   # whose events the segments search (a LockTransitions: with locks)
 
@@ -139,7 +138,6 @@ class _Chain:
             if shape is None:
                 shape = self.shapes[key] = Shape(self.m, np.array(key), self.incidence)
             motion = Motion(self.m, x0, v0, None, force, self.incidence, shape)
-        self._slopes = None if lock else key   # (the state's reach down the chain: _reach)
         funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if lock and event is not None:   # (a law event at the same instant goes first)
@@ -186,7 +184,7 @@ class _Chain:
         # force k tol_d drives the rate's derivatives as ω tol_d does its value)
         tol_w = START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist())) \
             + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
-        self._tol_w, out = tol_w, []
+        out = []
         for i in self.parts.active_events(disc):
             k, which = self.parts.events[i]
             st = disc[k]
@@ -202,31 +200,6 @@ class _Chain:
             out.append((i, g, tol))
         return out
 
-    def _reach(self, i: int, omega: float):
-        """``p -> `` how far the start state's rounding can put the ``p``-th derivative of event
-        ``i``'s function at 0 (``p >= 3``), carried along the chain's couplings: each vehicle's
-        velocity within the rate tolerance, its acceleration within ``omega`` times it, and
-        ``D^(2m+1), D^(2m+2)`` their images under ``|C_k| |A|^m`` (``A = M⁻¹ Cᵀ diag(s) C``, taken
-        entrywise in magnitude: a bound, with A's zeros kept, so a contact a few open or soft
-        contacts away from a stiff one is not judged by the stiff one's rate); ``None`` (the
-        segment's fastest mode instead, :func:`_rounding`): a lock's function or segment."""
-        k, which = self.parts.events[i]
-        if self._slopes is None or k >= self.K:
-            return None
-        A = self.reach.get(self._slopes)
-        if A is None:
-            A = self.reach[self._slopes] = (np.abs(self.incidence) * np.abs(self._slopes)) \
-                @ np.abs(self.C) / self.m[:, None]
-        shift, tol_w = int(which == 2), self._tol_w   # (a closing rate: D's next order)
-
-        def bound(p):
-            q = p + shift
-            u = np.full(self.N, tol_w * (omega if q % 2 == 0 else 1.0))
-            for _ in range((q - 1) // 2):
-                u = A @ u
-            return float(u[k] + u[k + 1])
-        return bound
-
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
         none; ``(τ, None)``: the search stopped at ``τ``, see :data:`MAX_SAMPLES`)."""
@@ -234,7 +207,7 @@ class _Chain:
         omega = max(modes.fastest(), 1.0 / self.t_scale)
         pending = []
         for i, g, tol in funcs:
-            s = _start(g, tol, omega, limit, self._reach(i, omega) if abs(g.c) <= tol else None)
+            s = _start(g, tol, omega, limit)
             if s == 0.0 and g.c <= 0:
                 return 0.0, i   # (functions come in event order: the first wins a tie)
             if s is not None:
@@ -276,7 +249,7 @@ class _Ends(dict):
         return value
 
 
-def _start(g, tol: float, omega: float, limit: float, reach=None) -> float | None:
+def _start(g, tol: float, omega: float, limit: float) -> float | None:
     """Where to start searching ``g`` [s into the segment]: 0 normally (0 with ``g(0) <= 0``:
     it fires now), later where it starts on its surface and leaves it (see the module
     docstring), ``None`` where it stays on it: ``g`` lies in the span of ``1, S_j, C_j``
@@ -286,17 +259,19 @@ def _start(g, tol: float, omega: float, limit: float, reach=None) -> float | Non
 
     ``g^(p)(0)`` is rounding where it is within :func:`_rounding` of zero: ``tol`` [g's unit]
     the rounding of ``g(0)``, ``omega`` [1/s] the rate that turns it into that of ``g'`` and
-    ``g''`` (the state's velocities and forces); ``reach`` (``p -> ``, for ``p >= 3``): a
-    tighter bound on the state's rounding at order ``p`` (:meth:`_Chain._reach`)."""
+    ``g''`` (the state's velocities and forces)."""
     order = 2 * g.alpha.size + 1
     if abs(g.c) > tol:
         return 0.0
     terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
-    fastest = g.modes.fastest()
+    # (the fastest mode that enters g: a mode of a part of the chain that no contact of
+    # non-zero slope joins to g's is exactly absent from it, its rounding too)
+    used = (g.alpha != 0) | (g.gamma != 0)
+    fastest = float(np.max(g.modes.w[used], initial=0.0))
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
-        if abs(dp) > _rounding(tol, omega, fastest, p, size, reach):
+        if abs(dp) > _rounding(tol, omega, fastest, p, size):
             break
     else:
         return None
@@ -312,16 +287,14 @@ def _start(g, tol: float, omega: float, limit: float, reach=None) -> float | Non
     return min(0.5 * clear, T)
 
 
-def _rounding(tol: float, omega: float, fastest: float, p: int, size: float,
-              reach=None) -> float:
+def _rounding(tol: float, omega: float, fastest: float, p: int, size: float) -> float:
     """How far from zero rounding can put ``g^(p)(0)`` (``p >= 1``): the start state's rounding,
     ``tol omega^p`` up to ``p = 2`` (position, velocity, force), each further order one more
-    factor of the segment's ``fastest`` mode [1/s] (``g^(p+2) = -A g^(p)`` in the modes, ``|A|``
-    its largest ``κ``: not the model's stiffest contact, which a far contact of a long chain
-    pushed shut through soft ones, its deformation ``~ τ^(2j+1)``, would hide behind), or
-    ``reach(p)`` where smaller (both bound it); and that of the sum itself, a few ulps of its
-    terms' ``size``."""
+    factor of the ``fastest`` mode [1/s] that enters ``g`` (``g^(p+2) = -A g^(p)`` in the modes,
+    ``|A|`` its largest ``κ``, the modal coefficients' rounding that of the eigensolve of ``A``:
+    not the model's stiffest contact, nor a stiff pair elsewhere in the chain that no closed
+    contact joins to ``g``'s, which a far contact of a long chain pushed shut through soft ones,
+    its deformation ``~ τ^(2j+1)``, would hide behind), and that of the sum itself, a few ulps of
+    its terms' ``size``."""
     state = tol * omega ** min(p, 2) * fastest ** max(p - 2, 0)
-    if reach is not None and p > 2:
-        state = min(state, reach(p))
     return max(state, 64 * _EPS * size)
