@@ -75,7 +75,9 @@ def test_a_touching_contact_pushed_through_soft_contacts_fires_at_once(behind):
     assert _start(down, tol, omega, math.inf) == 0.0
     up = motion.deformation(behind, 0.0)
     later = _start(up, tol, omega, math.inf)
-    assert later is not None and 0.0 < later <= 1.0 / omega
+    # (within a radian of the function's own fastest mode, where it is still above zero)
+    assert later is not None and 0.0 < later <= 1.0 / motion.modes.fastest()
+    assert up(later) > 0
 
 
 class _Counted(RuntimeError):
@@ -86,8 +88,8 @@ class _Counted(RuntimeError):
 def test_a_function_leaving_its_surface_as_a_high_power_is_searched_in_few_evaluations(
         monkeypatch, behind, s):
     """The deformation of a contact touching at rest, ``behind`` soft contacts (slope ``s``)
-    from the rear car, leaves its surface as ``τ^(2j+1)``: searched from where the restart rule
-    (``_start``) lets it go, over the first windows of the segment (model's time scale 1e-4 s,
+    from the rear car, leaves its surface as ``τ^(2j+1)``: searched from 1e-4 s (as far as the
+    restart rule, ``_start``, lets it go at least), over the first windows of the segment (model's time scale 1e-4 s,
     as beside a stiff pair), no crossing, as a dense sampling shows; in a few hundred
     evaluations of the series (the chord's bound alone halved each window down to
     ``sqrt(8 g / B)``: millions, 15-50 s a segment). (Near the start the function is below
@@ -101,8 +103,10 @@ def test_a_function_leaving_its_surface_as_a_high_power_is_searched_in_few_evalu
     motion = Motion(np.ones(N), np.zeros(N), np.r_[1.0, np.zeros(N - 1)], slope,
                     np.zeros(N - 1), -deformation_map(N).T)
     up = motion.deformation(behind, 0.0)
-    start = _start(up, START_TOL / omega, omega, math.inf)
-    assert start is not None and 0.0 < start <= 1.0 / omega
+    # (a start the search may be handed, as the restart rule did before it looked past the
+    # model's time scale: there the function is still below its rounding)
+    start = 1.0 / omega
+    assert _start(up, START_TOL / omega, omega, math.inf) >= start
     fast = motion.modes.fastest()
     tt = np.linspace(start, 4 * math.pi / fast, 200_001)
     S, C = motion.modes.basis(tt)

@@ -281,7 +281,9 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     lower = g
     for _ in range(p - 1):
         lower = lower.derivative()
-    T = min(limit, 1.0 / omega) if math.isfinite(limit) else 1.0 / omega
+    # (over a radian of g's own fastest mode: past the stiff pair's period, beyond which a slow
+    # function leaving its surface as a high power of time would still be below its rounding)
+    T = min(limit, 1.0 / (fastest or omega))
     B = lower.curvature_bound(T)
     clear = (p + 1) * dp / B if B > 0 else T
     return min(0.5 * clear, T)
