@@ -28,7 +28,7 @@ from hypothesis import event, given
 import lsc
 import lsc.locking
 from hard.common import (HARD, chain, check_agrees, check_result, closing_scale, hard_settings,
-                         momentum_error)
+                         momentum_error, relative_ke, tolerance)
 from hard.test_chains import chains as hard_chains
 from test_locked_pairs import (CHATTERING_CHAINS, FEW_EVENTS, K_REAR, M, PLAIN_CHAIN, V0,
                                _locks, _without_locks)
@@ -170,7 +170,85 @@ def test_near_plastic_chains_lock_in_exact_chain_as_in_scipy(scene):
         event("events differ")
         return
     event("same events" + (" (locked)" if _locks(exact) else ""))
-    check_agrees(ref, exact)
+    _agrees_with_scipy(scene, ref, exact)
+
+
+def _agrees_with_scipy(scene, ref, exact) -> None:
+    """``exact`` agrees with SciPy's ``ref`` (same events) to SciPy's tolerance
+    (``check_agrees``) or, where not, SciPy's offset is its restart shift's: SciPy starts an
+    event function that an event left on its surface :data:`lsc.solvers.scipy_ode.EVENT_TOL`
+    of its scale past it (so that it fires only once the motion goes that far back in), an
+    offset that no rtol shrinks; solved again with a shift 100 times smaller (same events),
+    SciPy closes at least half of its gap to exact-chain on every metric compared (ΔV, the
+    energies, the max deformations). Measured on two chains the --hard run drew
+    (NEAR_PLASTIC_SHIFTED): SciPy's ΔV 2.0e-9 of the closing speed off at every rtol from 1e-10
+    to 2.5e-14 and with DOP853, RK45 and Radau alike, 2.0e-8, 6.3e-9, 2.0e-9, 6.0e-10, 2.7e-10 at
+    a shift of 1e-10 ... 1e-14; a max deformation 4.5e-6 ... 4.5e-10 off, in proportion; exact-chain
+    moved by 4e-14 (1e-18 ft) when the data moved by 1e-14."""
+    import lsc.solvers.scipy_ode as scipy_ode
+
+    try:
+        check_agrees(ref, exact)
+        return
+    except AssertionError:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(scipy_ode, "EVENT_TOL", scipy_ode.EVENT_TOL / 100)
+            try:
+                tight = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)
+            except lsc.SimulationError:
+                tight = None
+        if tight is None or _events(tight) != _events(exact):
+            raise   # (no evidence that the offset is the shift's)
+    # (check_agrees's own tolerances: those SciPy's numbers meet anyway)
+    tol, w = tolerance(ref), closing_scale(exact.scene)
+    ke0 = relative_ke(exact.scene.masses, exact.scene.speeds)
+    for name, slack in (("delta_v", tol * w), ("energy_absorbed", 4 * tol * ke0),
+                        ("max_deformation", max(4 * tol, 1e-9) * exact.max_deformation)):
+        x, a, b = (np.asarray(getattr(r, name), float) for r in (exact, ref, tight))
+        assert np.all(np.abs(x - b) <= 0.5 * np.abs(x - a) + slack), (name, x - a, x - b)
+
+
+#: Two near-plastic chains the --hard run drew (five cars at rest touching, locks): SciPy
+#: (rtol 1e-12) is off exact-chain by more than its tolerance (ΔV 2.0e-9 of the closing speed;
+#: contact 3's max deformation 4.5e-8), by its restart shift (see :func:`_agrees_with_scipy`).
+def _plateau(d1: float, f1: float, f_end: float, e: float = 0.0) -> dict:
+    """A contact touching at rest: a table rising to ``f1`` at ``d1`` [ft, lbf], flat to
+    ``2 d1``, then to ``f_end`` at 1000 ft; restitution ``e``."""
+    return {"loading": {"table": [[0.0, 0.0], [d1, f1], [2 * d1, f1], [1000.0, f_end]]},
+            "unloading": {"restitution": e}, "gap": 0.0}
+
+
+def _touching_five(e0: float, front: list) -> dict:
+    """A car of 3.2 slug at 1 ft/s behind four of 1 slug at rest, touching: contact 0 a plateau
+    table of restitution ``e0``, contact 1 stiff (1.4e7 lbf/ft) and plastic, then ``front``."""
+    rear = _plateau(0.014521868325072896, 1643.3685309209595, 1131619672.5176, e0)
+    stiff = {"loading": {"stiffness": 13999637.191132873}, "unloading": {"restitution": 0.0},
+             "gap": 0.0}
+    return {"units": "US", "vehicles": [{"mass": 3.2168325729672946, "speed": 1.0}]
+            + [{"mass": 1.0, "speed": 0.0}] * 4, "contacts": [rear, stiff] + front}
+
+
+NEAR_PLASTIC_SHIFTED = [
+    _touching_five(0.030990173002686045, [
+        _plateau(0.03050474729612689, 9.707710777672656, 3182176.214750471),
+        _plateau(0.001, 0.1, 999998.1)]),
+    _touching_five(0.0, [_plateau(0.001, 0.31823606612552463, 3182354.6147699906),
+                         _plateau(0.001, 100000.0, 999998100000.0)])]
+
+
+@pytest.mark.parametrize("scene", [
+    NEAR_PLASTIC_SHIFTED[0],
+    pytest.param(NEAR_PLASTIC_SHIFTED[1], marks=pytest.mark.skipif(
+        not HARD, reason="hard mode only (pytest --hard): SciPy 16 s"))], ids=["dv", "dmax"])
+def test_scipy_is_off_a_near_plastic_chain_by_its_restart_shift(scene):
+    """(the --hard failures of the test above: ΔV 2.0e-9 of the closing speed against a
+    tolerance of 1e-10, a max deformation 4.5e-8 off against 1e-9): exact-chain is the value
+    SciPy converges to as its restart shift shrinks, not as its rtol does."""
+    exact = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
+    ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)
+    assert _events(exact) == _events(ref) and _locks(exact)
+    check_result(exact)
+    _agrees_with_scipy(scene, ref, exact)
 
 
 def test_the_batch_hands_members_that_may_lock_to_the_single_solve():
@@ -245,12 +323,39 @@ def _far_push(k_soft: float, k_stiff: float) -> dict:
                 "gap": 0.0}]}
 
 
-def test_a_contact_pushed_through_soft_contacts_beside_a_stiff_pair_agrees_with_scipy():
-    """(contact 3 closed only at the stiff pair's separation, 115 ms late on the old restart
-    rule: ΔV 1.7e-5 of the closing speed off SciPy's)"""
-    scene = _far_push(1e2, 1e7)
+def _without_first_closings(r, contacts) -> list:
+    """The events of ``r`` but the first closing of each of ``contacts``."""
+    out, closed = [], set()
+    for e in r.events:
+        if e.kind.split("+")[0] == "contact" and e.index in contacts and e.index not in closed:
+            closed.add(e.index)
+            continue
+        out.append((e.kind, e.index))
+    return out
+
+
+@pytest.mark.parametrize("k_soft,k_stiff", [(1e2, 1e7), (1e2, 1e8), (10.0, 1e8), (1e2, 1e9)])
+def test_a_contact_pushed_through_soft_contacts_beside_a_stiff_pair_agrees_with_scipy(
+        k_soft, k_stiff):
+    """Every contact touching at rest closes at t = 0 (pushed through up to three soft
+    contacts: its deformation grows as ``τ^7``), and but for those closings (SciPy's sees them
+    when their growth reaches its rounding, ms later) the events and metrics are SciPy's.
+    (On the old restart rule contact 3 closed only at the stiff pair's separation, 115 ms
+    late: ΔV 1.7e-5 of the closing speed off SciPy's; then, its rounding judged by the stiff
+    pair's mode, 1.15 ms late at k_stiff = 1e8, and contacts 2 and 3 0.17 ms late at
+    k_soft = 10; at k_soft = 10 one segment's search took 15 s. Closed at once, contact 3's
+    closing rate, ``~ τ^6``, was handed to the search a radian of the stiff pair's mode in,
+    2.2e-5 s at 1e9, still below its rounding: a max deformation and a reload at rounding level,
+    twice; now a radian of its own fastest mode in.)"""
+    scene = _far_push(k_soft, k_stiff)
     exact = lsc.solve(scene, method="exact-chain", max_events=FEW_EVENTS)
     ref = lsc.solve(scene, method="scipy", rtol=RTOL, max_events=FEW_EVENTS)
-    assert _events(exact) == _events(ref)
+    touching = {0, 1, 2, 3, 5}
+    firsts = {}
+    for e in exact.events:
+        if e.kind.split("+")[0] == "contact":
+            firsts.setdefault(e.index, e.time)
+    assert all(firsts[k] == 0.0 for k in touching), firsts
+    assert _without_first_closings(exact, touching) == _without_first_closings(ref, touching)
     check_agrees(ref, exact)
     check_result(exact)

@@ -167,19 +167,74 @@ def first_crossing(g: Series, lo: float, hi: float) -> float | None:
 
 def _hunt(g, a, b, ga, gb, B, width):
     """The first downward crossing in ``[a, b]`` (``g(a) = ga > 0``), or ``None`` where the
-    bound shows there is none (bisecting where it cannot tell, down to ``width``)."""
-    stack = [(a, b, ga, gb)]
+    bound shows there is none (bisecting where it cannot tell, down to ``width``; an interval
+    the chord's bound cannot clear is tried by :class:`_Taylor` before it is halved)."""
+    stack, taylor = [(a, b, ga, gb)], None
     while stack:
         a, b, ga, gb = stack.pop()
         if gb <= 0:
             return _refine(g, a, b, ga, gb)
         if min(ga, gb) - B * (b - a) ** 2 / 8.0 > 0 or b - a <= width:
             continue
+        if taylor is None:
+            taylor = _Taylor(g, b)
+        if taylor.clears(a, b, ga):
+            continue
         mid = 0.5 * (a + b)
         gm = g(mid)
         stack.append((mid, b, gm, gb))   # (the left half on top: the earliest crossing wins)
         stack.append((a, mid, ga, gm))
     return None
+
+
+class _Taylor:
+    """Where a function is flat, near a zero of high order (a contact pushed into motion far
+    down a chain leaves its surface as ``τ^p``: its value is far below its curvature bound's
+    ``B Δ²/8`` on any interval a sample step wide, which the chord's test would halve down to
+    ``sqrt(8 g / B)``, millions of evaluations), its Taylor polynomial at the interval's left
+    end ``a`` with a bound on the next derivative clears the interval: for ``h <= b - a``,
+    ``g(a + h) >= g(a) - Σ_{i<n} max(0, -g^(i)(a)) h^i/i! - B_n (b - a)^n/n!`` with
+    ``B_n >= |g^(n)|`` on ``[0, T]`` (:meth:`~._modes.Series.curvature_bound` of
+    ``g^(n-2)``): where it is positive, ``g`` has no zero in ``[a, b]``. A negative derivative
+    only lowers the bound (a positive one is not counted), so the test trusts no more of the
+    computed values than the chord's does (``g(a)``), and its bounds are on the exact
+    function; the orders tried stop where the bound is no longer positive, or at
+    :data:`TAYLOR_ORDER`."""
+
+    def __init__(self, g: Series, T: float):
+        self.T, self.derivs, self.bounds = T, [g], []
+        self.order = min(TAYLOR_ORDER, 2 * g.alpha.size + 2)
+
+    def _bound(self, n: int) -> float:
+        """``B_n`` (``n >= 2``), a bound on ``|g^(n)|`` over ``[0, T]``."""
+        while len(self.bounds) < n - 1:
+            self._deriv(len(self.bounds))
+            self.bounds.append(self.derivs[len(self.bounds)].curvature_bound(self.T))
+        return self.bounds[n - 2]
+
+    def _deriv(self, i: int) -> Series:
+        while len(self.derivs) <= i:
+            self.derivs.append(self.derivs[-1].derivative())
+        return self.derivs[i]
+
+    def clears(self, a: float, b: float, ga: float) -> bool:
+        """True where the bound shows ``g`` (``g(a) = ga > 0``) has no zero in ``[a, b]``."""
+        h, lower, term = b - a, ga, 1.0
+        for i in range(1, self.order):
+            term *= h / i
+            d = self._deriv(i)(a)
+            if d < 0:
+                lower += d * term
+                if not lower > 0:
+                    return False
+            if lower - self._bound(i + 1) * term * h / (i + 1) > 0:
+                return True
+        return False
+
+
+#: Highest order of the Taylor test of :class:`_Taylor` (a zero of order up to about this,
+#: ``2n + 1`` for ``n`` modes at most at a segment's start: :func:`._solve._start`).
+TAYLOR_ORDER = 24
 
 
 def _refine(g, a, b, ga, gb):

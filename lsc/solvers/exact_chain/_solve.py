@@ -269,7 +269,10 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
         return 0.0
     terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
-    fastest = g.modes.fastest()
+    # (the fastest mode that enters g: a mode of a part of the chain that no contact of
+    # non-zero slope joins to g's is exactly absent from it, its rounding too)
+    used = (g.alpha != 0) | (g.gamma != 0)
+    fastest = float(np.max(g.modes.w[used], initial=0.0))
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
         if abs(dp) > _rounding(tol, omega, fastest, p, size):
@@ -282,7 +285,9 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     lower = g
     for _ in range(p - 1):
         lower = lower.derivative()
-    T = min(limit, 1.0 / omega) if math.isfinite(limit) else 1.0 / omega
+    # (over a radian of g's own fastest mode: past the stiff pair's period, beyond which a slow
+    # function leaving its surface as a high power of time would still be below its rounding)
+    T = min(limit, 1.0 / (fastest or omega))
     B = lower.curvature_bound(T)
     clear = (p + 1) * dp / B if B > 0 else T
     return min(0.5 * clear, T)
@@ -291,9 +296,11 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
 def _rounding(tol: float, omega: float, fastest: float, p: int, size: float) -> float:
     """How far from zero rounding can put ``g^(p)(0)`` (``p >= 1``): the start state's rounding,
     ``tol omega^p`` up to ``p = 2`` (position, velocity, force), each further order one more
-    factor of the segment's ``fastest`` mode [1/s] (``g^(p+2) = -A g^(p)`` in the modes, ``|A|``
-    its largest ``κ``: not the model's stiffest contact, which a far contact of a long chain
-    pushed shut through soft ones, its deformation ``~ τ^(2j+1)``, would hide behind), and that
-    of the sum itself, a few ulps of its terms' ``size``."""
+    factor of the ``fastest`` mode [1/s] that enters ``g`` (``g^(p+2) = -A g^(p)`` in the modes,
+    ``|A|`` its largest ``κ``, the modal coefficients' rounding that of the eigensolve of ``A``:
+    not the model's stiffest contact, nor a stiff pair elsewhere in the chain that no closed
+    contact joins to ``g``'s, which a far contact of a long chain pushed shut through soft ones,
+    its deformation ``~ τ^(2j+1)``, would hide behind), and that of the sum itself, a few ulps of
+    its terms' ``size``."""
     state = tol * omega ** min(p, 2) * fastest ** max(p - 2, 0)
     return max(state, 64 * _EPS * size)
