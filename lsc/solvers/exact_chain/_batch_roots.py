@@ -20,6 +20,7 @@ import numpy as np
 
 from ._batch_modes import Sums, half_angle, msum
 from ._roots import EXTREMUM_RTOL, PER_RADIAN, TOUCH
+from ._solve import fastest_entering, start_rounding, taylor_span
 
 __all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
 
@@ -34,30 +35,36 @@ _EPS = float(np.finfo(float).eps)
 
 
 def start_times(g: Sums, tol, omega, limit):
-    """Where to start searching each function (b, F) [s] (:func:`._solve._start` for arrays):
-    0 normally; NaN where it stays on its surface all along the segment; where it starts within
-    ``tol`` (b, F) of zero, judged by its first derivative clear of ``tol ω^p`` (``omega``
-    (b,)): 0 going down (it fires now where ``g(0) <= 0``), going up the half of the interval
-    over which its Taylor polynomial and a bound on the next derivative keep it positive."""
+    """Where to start searching each function (b, F) [s]: :func:`._solve._start`'s rule, its
+    rounding (:func:`._solve.start_rounding`), fastest mode and Taylor interval the same
+    functions, on every function at once: 0 normally; NaN where it stays on its surface all
+    along the segment; where it starts within ``tol`` (b, F) of zero, judged by its first
+    derivative clear of its rounding (``omega`` (b,) [1/s] the start state's rate): 0 going
+    down (it fires now where ``g(0) <= 0``), going up the half of the interval over which its
+    Taylor polynomial and a bound on the next derivative keep it positive."""
     c = g.c
     out = np.zeros(c.shape)
     on = np.abs(c) <= tol
     if not on.any():
         return out
     rows, cols = np.nonzero(on)
-    h = Sums(c[rows, cols][:, None], g.alpha[rows, cols][:, None], g.gamma[rows, cols][:, None],
-             g.kappa[rows], g.w[rows])
+    h = g.take(rows, cols)
+    # (the sizes of the derivatives' terms at 0, as :meth:`._modes.Series.each_at_zero` gives
+    # them: the derivatives of the function of coefficients |c|, |α|, |γ| on modes -|κ|)
+    size = Sums(np.abs(h.c), np.abs(h.alpha), np.abs(h.gamma), -np.abs(h.kappa), h.w)
     order = 2 * g.alpha.shape[-1] + 1
     om = omega[rows]
     thr = tol[rows, cols]
-    T = np.minimum(limit[rows], 1.0 / om)
+    fastest = fastest_entering(h.alpha[:, 0], h.gamma[:, 0], h.w)
+    T = taylor_span(limit[rows], fastest, om)
     s = np.full(rows.size, np.nan)
     todo = np.ones(rows.size, bool)
     lower = h
     for p in range(1, order + 1):
         d = lower.derivative()
+        size = size.derivative()
         dp = d.c[:, 0]
-        hit = todo & (np.abs(dp) > thr * om ** p)
+        hit = todo & (np.abs(dp) > start_rounding(thr, om, fastest, p, size.c[:, 0]))
         if hit.any():
             B = lower.curvature_bound(T[:, None])[:, 0]
             clear = np.where(B > 0, (p + 1) * dp / np.where(B > 0, B, 1.0), T)

@@ -261,7 +261,7 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     first ``2n + 1`` derivatives vanish every one does (Cayley-Hamilton), and ``g`` is zero all
     along the segment.
 
-    ``g^(p)(0)`` is rounding where it is within :func:`_rounding` of zero: ``tol`` [g's unit]
+    ``g^(p)(0)`` is rounding where it is within :func:`start_rounding` of zero: ``tol`` [g's unit]
     the rounding of ``g(0)``, ``omega`` [1/s] the rate that turns it into that of ``g'`` and
     ``g''`` (the state's velocities and forces)."""
     order = 2 * g.alpha.size + 1
@@ -269,13 +269,10 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
         return 0.0
     terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
-    # (the fastest mode that enters g: a mode of a part of the chain that no contact of
-    # non-zero slope joins to g's is exactly absent from it, its rounding too)
-    used = (g.alpha != 0) | (g.gamma != 0)
-    fastest = float(np.max(g.modes.w[used], initial=0.0))
+    fastest = float(fastest_entering(g.alpha, g.gamma, g.modes.w))
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
-        if abs(dp) > _rounding(tol, omega, fastest, p, size):
+        if abs(dp) > start_rounding(tol, omega, fastest, p, size):
             break
     else:
         return None
@@ -285,15 +282,32 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     lower = g
     for _ in range(p - 1):
         lower = lower.derivative()
-    # (over a radian of g's own fastest mode: past the stiff pair's period, beyond which a slow
-    # function leaving its surface as a high power of time would still be below its rounding)
-    T = min(limit, 1.0 / (fastest or omega))
+    T = taylor_span(limit, fastest, omega)
     B = lower.curvature_bound(T)
     clear = (p + 1) * dp / B if B > 0 else T
     return min(0.5 * clear, T)
 
 
-def _rounding(tol: float, omega: float, fastest: float, p: int, size: float) -> float:
+def fastest_entering(alpha, gamma, w):
+    """The fastest mode [1/s] that enters ``g`` (coefficients ``alpha, gamma`` (..., n) on modes
+    of angular frequency ``w`` (..., n), 0 where none does): a mode of a part of the chain that
+    no contact of non-zero slope joins to ``g``'s is exactly absent from it, its rounding too.
+    Arrays for the batch's :func:`._batch_roots.start_times` (one value per function)."""
+    used = (alpha != 0) | (gamma != 0)
+    return np.max(np.where(used, w, 0.0), axis=-1, initial=0.0)
+
+
+def taylor_span(limit, fastest, omega):
+    """The interval [s] over which :func:`_start` bounds a function leaving its surface: a
+    radian of its own ``fastest`` mode (``omega`` where none enters it), at most ``limit``: past
+    a stiff pair's period, beyond which a slow function leaving its surface as a high power of
+    time would still be below its rounding. Floats, or arrays (the batch's)."""
+    if isinstance(fastest, float):
+        return min(limit, 1.0 / (fastest or omega))
+    return np.minimum(limit, 1.0 / np.where(fastest > 0, fastest, omega))
+
+
+def start_rounding(tol, omega, fastest, p: int, size):
     """How far from zero rounding can put ``g^(p)(0)`` (``p >= 1``): the start state's rounding,
     ``tol omega^p`` up to ``p = 2`` (position, velocity, force), each further order one more
     factor of the ``fastest`` mode [1/s] that enters ``g`` (``g^(p+2) = -A g^(p)`` in the modes,
@@ -301,6 +315,7 @@ def _rounding(tol: float, omega: float, fastest: float, p: int, size: float) -> 
     not the model's stiffest contact, nor a stiff pair elsewhere in the chain that no closed
     contact joins to ``g``'s, which a far contact of a long chain pushed shut through soft ones,
     its deformation ``~ τ^(2j+1)``, would hide behind), and that of the sum itself, a few ulps of
-    its terms' ``size``."""
+    its terms' ``size``. Floats, or arrays (the batch's :func:`._batch_roots.start_times`)."""
     state = tol * omega ** min(p, 2) * fastest ** max(p - 2, 0)
-    return max(state, 64 * _EPS * size)
+    floor = 64 * _EPS * size
+    return max(state, floor) if isinstance(state, float) else np.maximum(state, floor)
