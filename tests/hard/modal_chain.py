@@ -267,8 +267,13 @@ class ModalChain:
             size = START_TOL * size
             h0 = float(h(0.0))
             # the restart: a function that starts on its surface (the event just fired) and
-            # does not go on into it is moved off it
-            if abs(h0) <= size and (key == fired or float(h.derivative()(0.0)) >= 0):
+            # does not go on into it is moved off it; one of the contact or vehicle that just
+            # fired that leaves its surface is moved off it however far its rounding put it
+            # past (a contact re-closing along its unloading line, its deformation the
+            # difference of positions many times larger: the separation at once otherwise)
+            dh0 = float(h.derivative()(0.0))
+            if (abs(h0) <= size and (key == fired or dh0 >= 0)) or \
+                    (key == fired and dh0 > 0 and h0 < size):
                 h = _shift(h, size - h0)
             armed.append((key, kind, h))
         t0 = 0.0
