@@ -18,23 +18,24 @@ from lsc.model import HybridModel
 
 from hard.common import closing_scale, energy_error, log_uniform, relative_ke
 from hard.modal_chain import ModalChain
+from hard.modal_metrics import metrics as modal_metrics
 from helpers import HARD
 
 #: Random chains in the default run (the issue asks for 200: they take ~80 s of CPU here, more
 #: than the default run can spend; --hard runs 200 and 100)
 MODAL_CASES, SCIPY_CASES = (1000, 100) if HARD else (200, 15)
 
-#: The independent solution's event kinds, as lsc names them.
-KINDS = {"contact": "contact", "max": "max_deformation", "separation": "separation",
-         "reload": "reload_past_max"}
+#: Every metric of a Result (lsc.result.METRICS), compared with the independent solution.
+METRICS_ALL = tuple(lsc.result.METRICS)
 
 
 @st.composite
-def chains(draw, tables=False, e_min=0.05, pushed_shut=True):
+def chains(draw, tables=False, e_min=0.05, pushed_shut=True, brakes=False):
     """A US chain of 3 to 6 vehicles: masses within 1:20, stiffnesses 1e3 to 1e7 lbf/ft,
     restitutions in [e_min, 1], gaps or touching, some vehicles closing and some not
     (``tables``: some contacts with a rising table that has a plateau; ``pushed_shut=False``:
-    no contact touching with no closing speed, which an integrator closes a moment late)."""
+    no contact touching with no closing speed, which an integrator closes a moment late;
+    ``brakes``: some vehicles braked, at least one, mu 0.1 to 1 and mu_static up to 1.3 mu)."""
     n = draw(st.integers(3, 6))
     m = [draw(log_uniform(50.0, 1000.0)) for _ in range(n)]
     v = [draw(st.one_of(st.just(0.0), st.floats(-10.0, 20.0)))]
@@ -59,8 +60,13 @@ def chains(draw, tables=False, e_min=0.05, pushed_shut=True):
         if not pushed_shut and closing[j] == 0:
             gap = draw(log_uniform(1e-3, 1.0))
         contacts.append({"loading": loading, "unloading": {"restitution": e}, "gap": gap})
-    return {"units": "US", "vehicles": [{"mass": mi, "speed": vi} for mi, vi in zip(m, v)],
-            "contacts": contacts}
+    vehicles = [{"mass": mi, "speed": vi} for mi, vi in zip(m, v)]
+    if brakes:
+        braked = [draw(st.booleans()) for _ in range(n)]
+        for i in np.flatnonzero(braked) if any(braked) else [n - 1]:
+            mu = draw(st.floats(0.1, 1.0))
+            vehicles[i]["brake"] = {"mu": mu, "mu_static": mu * draw(st.floats(1.0, 1.3))}
+    return {"units": "US", "vehicles": vehicles, "contacts": contacts}
 
 
 def _after_touching(events, gaps):
@@ -103,13 +109,14 @@ def _momentum_error(r) -> float:
     return float(abs(m @ r.v_final - p0) / max(abs(p0), 1e-300))
 
 
-def _check_conservation(r):
+def _check_conservation(r, energy_allowance=0.0):
     """Momentum to 1e-14 of the initial momentum, energy balance to 1e-12 (kinetic energy lost
-    in the centre-of-mass frame = absorbed - returned, every contact apart at the end)."""
+    in the centre-of-mass frame = absorbed - returned, every contact apart at the end), plus
+    ``energy_allowance`` (a measured rounding response, see the modal test)."""
     m = r.scene.masses
     if abs(m @ r.scene.speeds) > 1e-3 * (m @ np.abs(r.scene.speeds)):
         assert _momentum_error(r) <= 1e-14, _momentum_error(r)
-    assert energy_error(r) <= 1e-12, energy_error(r)
+    assert energy_error(r) <= 1e-12 + energy_allowance, (energy_error(r), energy_allowance)
 
 
 def _tie_order(events, t_last):
@@ -124,64 +131,99 @@ def _tie_order(events, t_last):
     return out + sorted(run, key=lambda x: x[1:])
 
 
-@settings(max_examples=MODAL_CASES)
-@given(chains(e_min=0.2, pushed_shut=False))
-def test_chains_match_the_independent_modal_solution(scene):
-    """(Not with contacts touching at no closing speed: the reference moves a function that
-    starts on its surface off it by a fixed amount, which rounding in its modal sums can
-    exceed, and closes such contacts late or spuriously; nor with near-plastic contacts that a
-    neighbour pushes shut over and over, where each solution's rounding grows over the
-    events. SciPy is the reference for those, below.)"""
-    r = lsc.solve(scene, method="exact-chain")
-    s = r.scene
-    ref = ModalChain(s.masses, s.speeds,
-                     [c.law.loading.stiffness for c in s.contacts],
-                     [c.law.unloading.e for c in s.contacts], [c.gap for c in s.contacts])
+def _reference(scene, resolution=0.0):
+    """The independent solution's events ``(time, index, kind)`` and every metric (reading the
+    scene dict itself), or a hypothesis reject where it cannot finish (a near-plastic chain
+    that locks: SciPy's business)."""
+    ch = ModalChain.from_scene(scene)
     try:
-        v_ref, events = ref.run(max_events=1000)
-    except RuntimeError:   # (a near-plastic chain the reference cannot finish)
+        ch.run(max_events=1000)
+    except RuntimeError:
         reject()
-    if any(a[0] == b[0] and a[1] == b[1] for a, b in zip(events, events[1:])):
-        reject()   # (the reference closed and separated a contact at one instant: its restart
-        #            moved a function off its surface the wrong way; SciPy agrees with us there)
-    t_last = events[-1][0]
-    gaps = [c.gap for c in s.contacts]
+    return [(t, j, kind) for t, (_, j), kind, _ in ch.log], modal_metrics(ch, resolution)
+
+
+def _metric_errors(r, ref) -> dict:
+    """Each metric's largest difference between the Result ``r`` and the reference metrics
+    ``ref``, relative to its scale (:func:`_scale`); inf where they are NaN ("not applicable")
+    at different places."""
+    out = {}
+    for name in METRICS_ALL:
+        a, b = np.asarray(getattr(r, name), float), np.asarray(ref[name], float)
+        if not np.array_equal(np.isnan(a), np.isnan(b)):
+            out[name] = np.inf
+        elif np.any(~np.isnan(a)):
+            out[name] = float(np.max(np.abs(a - b)[~np.isnan(a)])) / _scale(r, name)
+    return out
+
+
+def _same_events(r, events, t_last, gaps):
+    """exact-chain's events and the reference's, in the same sequence (see the filters)."""
     ours = _without_touches(_after_touching([(e.time, e.index, e.kind) for e in r.events], gaps),
                             t_last)
-    theirs = _without_touches(_after_touching([(t, j, KINDS[kind]) for t, j, kind in events],
-                                              gaps), t_last)
+    theirs = _without_touches(_after_touching(events, gaps), t_last)
     # (events of different contacts at one instant, to 1e-10 of the run — a symmetric chain's
     # two max deformations — come in the order rounding gives them: compared as a set)
     ours, theirs = _tie_order(ours, t_last), _tie_order(theirs, t_last)
     assert [e[1:] for e in ours] == [e[1:] for e in theirs]
-    t, t_ref = np.array([e[0] for e in ours]), np.array([e[0] for e in theirs])
+    return np.array([e[0] for e in ours]), np.array([e[0] for e in theirs])
+
+
+@settings(max_examples=MODAL_CASES)
+@given(chains(tables=True, e_min=0.2, pushed_shut=False))
+def test_chains_match_the_independent_modal_solution(scene):
+    """exact-chain against the independent modal solution (tests/hard/modal_chain.py, every
+    metric from its own trajectory: tests/hard/modal_metrics.py) on random chains with
+    loading tables: the same sequence of events, their times to 1e-8 of the run, every metric
+    of lsc.result.METRICS to 1e-10 of its scale. (Not with contacts touching at no closing
+    speed: the reference moves a function that starts on its surface off it by a fixed amount,
+    which rounding in its modal sums can exceed, and closes such contacts late or spuriously;
+    nor with near-plastic contacts that a neighbour pushes shut over and over, which lock:
+    SciPy is the reference for those, below. Braked chains, which exact-chain does not solve,
+    are held to the same reference through SciPy: test_braked_chains_match_...)"""
+    r = lsc.solve(scene, method="exact-chain")
+    events, ref = _reference(scene)
+    t_last = events[-1][0]
+    t, t_ref = _same_events(r, events, t_last, [c.gap for c in r.scene.contacts])
     # (times to 1e-8: a contact closing after a long flight at a small closing rate, a
     # difference of speeds each known to ~1e-11, is timed to that over the rate)
-    scale = closing_scale(s)
-    dt, dv = np.max(np.abs(t - t_ref)), np.max(np.abs(r.v_final - v_ref))
-    if dt > 1e-8 * t_last or dv > 1e-10 * scale:
+    dt = np.max(np.abs(t - t_ref))
+    errors = _metric_errors(r, ref)
+    if dt > 1e-8 * t_last or max(errors.values()) > 1e-10:
         # an ill-conditioned chain (light cars ringing between stiff contacts): two exact
         # solutions, each rounding over hundreds of events, agree to what a relative change
         # of 1e-12 in the data does (100 times exact-chain's response to 1e-14 of the rear
         # car's speed, the response linear at that size)
-        t_cond, v_cond = _rounding_response(scene, r)
+        t_cond, cond = _rounding_response(scene, r)
         assert dt <= 1e-8 * t_last + 100 * t_cond, (dt, t_cond)
-        assert dv <= 1e-10 * scale + 100 * v_cond, (r.v_final, v_ref, v_cond)
-    _check_conservation(r)
+        for name, err in errors.items():
+            assert err <= 1e-10 + 100 * cond[name] / _scale(r, name), \
+                (name, getattr(r, name), ref[name], err, cond[name])
+    if energy_error(r) > 1e-12:
+        # (a fast chain closing slowly: speeds of 10.6 ft/s closing at 0.19 ft/s, the energy
+        # balance 5e-12 off, the independent solution's 3e-11, and a relative change of 1e-14 in
+        # the rear car's speed moves it by 6e-12: the balance is a difference of kinetic
+        # energies each known to rounding of the speeds, not of the closing speeds)
+        _check_conservation(r, 100 * _rounding_response(scene, r)[1]["energy"])
+    else:
+        _check_conservation(r)
 
 
 def _rounding_response(scene, r):
-    """How far exact-chain's event times and final speeds move [s, velocity] when the rear car's
-    speed moves by a relative 1e-14 (inf where the events change)."""
+    """How far exact-chain's event times [s] and each metric (name -> its largest change) move
+    when the rear car's speed moves by a relative 1e-14 (inf where the events change)."""
     import copy
 
     moved = copy.deepcopy(scene)
     moved["vehicles"][0]["speed"] *= 1 + 1e-14
     r2 = lsc.solve(moved, method="exact-chain")
     if [(e.index, e.kind) for e in r2.events] != [(e.index, e.kind) for e in r.events]:
-        return np.inf, np.inf
-    return (max(abs(a.time - b.time) for a, b in zip(r.events, r2.events)),
-            float(np.max(np.abs(r2.v_final - r.v_final))))
+        return np.inf, {name: np.inf for name in (*METRICS_ALL, "energy")}
+    cond = {"energy": abs(energy_error(r2) - energy_error(r))}
+    for name in METRICS_ALL:
+        d = np.abs(np.asarray(getattr(r2, name), float) - np.asarray(getattr(r, name), float))
+        cond[name] = float(np.max(d, where=~np.isnan(d), initial=0.0))
+    return max(abs(a.time - b.time) for a, b in zip(r.events, r2.events)), cond
 
 
 def test_an_ill_conditioned_chain_against_the_modal_solution_within_its_rounding_response():
@@ -210,7 +252,7 @@ def test_an_ill_conditioned_chain_against_the_modal_solution_within_its_rounding
                           [c.law.unloading.e for c in s.contacts],
                           [c.gap for c in s.contacts]).run(max_events=1000)
     dv = np.max(np.abs(r.v_final - v_ref))
-    _, v_cond = _rounding_response(scene, r)
+    v_cond = _rounding_response(scene, r)[1]["v_final"]
     assert dv > 1e-10 * closing_scale(s)          # (beyond the well-conditioned tolerance)
     assert dv <= 1e-10 * closing_scale(s) + 100 * v_cond, (dv, v_cond)
 
@@ -228,7 +270,7 @@ def _scale(r, name):
         return np.max(r.max_deformation)
     if name.startswith("energy"):
         return relative_ke(r.scene.masses, r.scene.speeds)
-    return np.max(np.abs(getattr(r, name)))
+    return max(float(np.nanmax(np.abs(getattr(r, name)))), 1e-300)
 
 
 @settings(max_examples=SCIPY_CASES)
