@@ -289,17 +289,19 @@ class ModalChain:
         raise RuntimeError(f"no event within {MAX_WINDOWS} windows")
 
     def run(self, max_events=200):
-        """Final speeds (N,) and the list of ``(time, index, kind)`` events; the segments
+        """Final speeds (N,) (at the last separation, or at the end of the run where nothing
+        separated) and the list of ``(time, index, kind)`` events; the segments
         ``(t0, t1, X, (a, s))`` in :attr:`segments`."""
-        t, events, fired, v_post = 0.0, [], None, self.v.copy()
+        t, events, fired, v_post = 0.0, [], None, None
         while True:
             X, lines = self._modes()
             tau, key, kind = self._next(X, lines, fired)
             if key is None:
                 if np.all(self.mode == OPEN) and np.all(self.C @ self.v <= 1e-12 * self.scale) \
                         and not np.any(self.braked & self.slide):
-                    self.v_post = v_post
-                    return v_post, events
+                    # (the speeds at the last separation; at the end where none separated)
+                    self.v_post = self.v.copy() if v_post is None else v_post
+                    return self.v_post, events
                 raise RuntimeError("no event in a loaded chain")
             self.segments.append((t, t + tau, X, lines))
             self.x, self.v = X(tau), X.derivative()(tau)
