@@ -1,7 +1,9 @@
 """The exact chain backend (``method="exact-chain"``): chains of three to six vehicles on IF-D
-contacts, against an independent modal event-driven solution (tests/hard/modal_chain.py, which
-shares no code with lsc) to 1e-10 and the tightest SciPy solve to 1e-8, with the same events;
-momentum to 1e-14 and the energy balance to 1e-12; an elastic chain with a gap passes the
+contacts, against an independent modal event-driven solution (tests/hard/modal_chain.py and
+modal_metrics.py, which share no code with lsc: loading tables, braking, every metric) to 1e-10
+on every metric and the tightest SciPy solve to 1e-8, with the same events (braked chains, which
+exact-chain does not solve: SciPy against the modal solution to 1e-8); momentum to 1e-14 and
+the energy balance to 1e-12; an elastic chain with a gap passes the
 speed down the line exactly; ``auto`` picks it for every chain it declares (SciPy for those
 with a feature it does not solve).
 """
