@@ -20,6 +20,7 @@ from lsc.model import HybridModel
 
 from hard.common import closing_scale, energy_error, log_uniform, relative_ke
 from hard.modal_chain import ModalChain
+from hard.modal_compare import same_events, without_touches
 from hard.modal_metrics import metrics as modal_metrics
 from helpers import HARD
 
@@ -72,39 +73,6 @@ def chains(draw, tables=False, e_min=0.05, pushed_shut=True, brakes=False):
     return {"units": "US", "vehicles": vehicles, "contacts": contacts}
 
 
-def _after_touching(events, gaps):
-    """``[(time, contact, kind)]`` without the first closing of each contact that starts
-    touching (gap 0): it closes at once where it is closing or pushed shut, which the
-    independent solution, moving a function that starts on its surface off it by 1e-13 of its
-    scale, records a moment later (after D has grown to that size)."""
-    seen, out = set(), []
-    for e in events:
-        first = e[1] not in seen
-        seen.add(e[1])
-        if not (first and e[2] == "contact" and gaps[e[1]] == 0):
-            out.append(e)
-    return out
-
-
-def _without_touches(events, t_last):
-    """``[(time, contact, kind)]`` without the touches of D_max: a contact re-closing along an
-    elastic unloading line comes back to its max deformation exactly (a tangency), which
-    rounding turns into ``reload_past_max`` followed at once by ``max_deformation``, or into
-    nothing; the two readings differ by nothing measurable (the pair leaves the line for 1e-10 of
-    the run) and are both correct."""
-    out, skip = [], set()
-    for i, e in enumerate(events):
-        if i in skip:
-            continue
-        nxt = next((j for j in range(i + 1, len(events)) if events[j][1] == e[1]), None)
-        if (e[2] == "reload_past_max" and nxt is not None and events[nxt][2] == "max_deformation"
-                and events[nxt][0] - e[0] <= 1e-8 * t_last):
-            skip.add(nxt)
-            continue
-        out.append(e)
-    return out
-
-
 def _momentum_error(r) -> float:
     """Change of the total momentum, relative to the initial momentum's magnitude."""
     m = r.scene.masses
@@ -120,18 +88,6 @@ def _check_conservation(r, energy_allowance=0.0):
     if abs(m @ r.scene.speeds) > 1e-3 * (m @ np.abs(r.scene.speeds)):
         assert _momentum_error(r) <= 1e-14, _momentum_error(r)
     assert energy_error(r) <= 1e-12 + energy_allowance, (energy_error(r), energy_allowance)
-
-
-def _tie_order(events, t_last):
-    """``events`` (time, index, kind) with each run of events less than 1e-10 of ``t_last``
-    apart sorted by contact and kind (their order within the run is rounding's)."""
-    out, run = [], []
-    for e in events:
-        if run and e[0] - run[-1][0] > 1e-10 * t_last:
-            out += sorted(run, key=lambda x: x[1:])
-            run = []
-        run.append(e)
-    return out + sorted(run, key=lambda x: x[1:])
 
 
 def _reference(scene, resolution=0.0):
@@ -160,18 +116,6 @@ def _metric_errors(r, ref) -> dict:
     return out
 
 
-def _same_events(r, events, t_last, gaps):
-    """exact-chain's events and the reference's, in the same sequence (see the filters)."""
-    ours = _without_touches(_after_touching([(e.time, e.index, e.kind) for e in r.events], gaps),
-                            t_last)
-    theirs = _without_touches(_after_touching(events, gaps), t_last)
-    # (events of different contacts at one instant, to 1e-10 of the run — a symmetric chain's
-    # two max deformations — come in the order rounding gives them: compared as a set)
-    ours, theirs = _tie_order(ours, t_last), _tie_order(theirs, t_last)
-    assert [e[1:] for e in ours] == [e[1:] for e in theirs]
-    return np.array([e[0] for e in ours]), np.array([e[0] for e in theirs])
-
-
 @settings(max_examples=MODAL_CASES)
 @given(chains(tables=True, e_min=0.2, pushed_shut=False))
 def test_chains_match_the_independent_modal_solution(scene):
@@ -187,7 +131,7 @@ def test_chains_match_the_independent_modal_solution(scene):
     r = lsc.solve(scene, method="exact-chain")
     events, ref = _reference(scene)
     t_last = events[-1][0]
-    t, t_ref = _same_events(r, events, t_last, [c.gap for c in r.scene.contacts])
+    t, t_ref = same_events(r, events, t_last, [c.gap for c in r.scene.contacts])
     # (times to 1e-8: a contact closing after a long flight at a small closing rate, a
     # difference of speeds each known to ~1e-11, is timed to that over the rate)
     dt = np.max(np.abs(t - t_ref))
@@ -282,9 +226,9 @@ def test_chains_with_tables_match_the_tightest_scipy_solve(scene):
     r = lsc.solve(scene, method="exact-chain")
     ref = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12)
     t_last = ref.events[-1].time
-    assert ([e[1:] for e in _without_touches([(e.time, e.index, e.kind) for e in r.events],
+    assert ([e[1:] for e in without_touches([(e.time, e.index, e.kind) for e in r.events],
                                              t_last)] ==
-            [e[1:] for e in _without_touches([(e.time, e.index, e.kind) for e in ref.events],
+            [e[1:] for e in without_touches([(e.time, e.index, e.kind) for e in ref.events],
                                              t_last)])
     tighter = None
     for name in METRICS:
@@ -315,7 +259,7 @@ def test_braked_chains_match_the_independent_modal_solution(scene):
     except lsc.SimulationError:
         reject()
     events, ref = _reference(scene, r.resolution)
-    _same_events(r, events, events[-1][0], [c.gap for c in r.scene.contacts])
+    same_events(r, events, events[-1][0], [c.gap for c in r.scene.contacts])
     errors, tighter = _metric_errors(r, ref), None
     for name, err in errors.items():
         if err > 1e-8 and tighter is None:

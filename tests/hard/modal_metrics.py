@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from hard.modal_chain import LOADING, PER_RADIAN, ModalChain, _Series
+from hard.modal_chain import PER_RADIAN, ModalChain, _Series
 
 #: A contact whose closing speed at touch is at most this fraction of the run's largest speed
 #: (at its events) is pushed shut, not struck (docs/metrics.rst).
