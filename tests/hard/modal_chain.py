@@ -305,6 +305,9 @@ class ModalChain:
                 raise RuntimeError("no event in a loaded chain")
             self.segments.append((t, t + tau, X, lines))
             self.x, self.v = X(tau), X.derivative()(tau)
+            # (only the positions' differences matter: kept small, so that a deformation of
+            # 1e-3 ft is not the difference of two positions tens of feet down the road)
+            self.x -= self.x[0]
             t += tau
             fired = key
             name = self._apply(key[1], kind)

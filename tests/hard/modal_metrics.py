@@ -152,4 +152,5 @@ def metrics(ch: ModalChain, resolution: float = 0.0) -> dict:
             "max_deformation": ch.M.copy(), "permanent_deformation": ch.perm.copy(),
             "peak_force": fpk, "restitution": rest, "restitution_energy": e_energy,
             "energy_absorbed": ch.ec.copy(), "energy_returned": ch.er.copy(),
-            "failure_time": np.full(K, np.nan)}
+            "failure_time": np.full(K, np.nan),
+            "closing_speed": closing}   # (at each contact's first touch; not a Result metric)
