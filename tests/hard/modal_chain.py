@@ -297,7 +297,12 @@ class ModalChain:
             X, lines = self._modes()
             tau, key, kind = self._next(X, lines, fired)
             if key is None:
-                if np.all(self.mode == OPEN) and np.all(self.C @ self.v <= 1e-12 * self.scale) \
+                # over: every contact open and none closing, or held shut between two stuck
+                # vehicles (braked cars pressed together, friction holding the force), and no
+                # braked vehicle sliding
+                held = ~self.slide[:-1] & ~self.slide[1:]
+                if np.all((self.mode == OPEN) | held) and \
+                        np.all((self.C @ self.v <= 1e-12 * self.scale) | held) \
                         and not np.any(self.braked & self.slide):
                     # (the speeds at the last separation; at the end where none separated)
                     self.v_post = self.v.copy() if v_post is None else v_post

@@ -153,4 +153,6 @@ def metrics(ch: ModalChain, resolution: float = 0.0) -> dict:
             "peak_force": fpk, "restitution": rest, "restitution_energy": e_energy,
             "energy_absorbed": ch.ec.copy(), "energy_returned": ch.er.copy(),
             "failure_time": np.full(K, np.nan),
-            "closing_speed": closing}   # (at each contact's first touch; not a Result metric)
+            # (not Result metrics: each contact's closing speed at its first touch; whether
+            # the run ended with a contact held shut between two stuck vehicles)
+            "closing_speed": closing, "held": bool(np.any(ch.mode != 0))}
