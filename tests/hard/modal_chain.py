@@ -233,26 +233,24 @@ class ModalChain:
                     out.append((("v", i), "break_backward", net[i].scaled(1.0, lim), lim))
         return out
 
-    def _first(self, h, t0, t1, omega_max):
-        """The first τ in ``(t0, t1]`` where ``h`` crosses zero downward (inf if none)."""
-        if omega_max == 0:   # no oscillation: a quadratic, solved on the whole future
-            return _quadratic_first(float(h.c), float(h.p1), float(h.p2), self.scale)
-        B = float(h.curvature_bound())
-        dt = 1.0 / (PER_RADIAN * omega_max)
-        tt = t0 + np.arange(int(np.ceil((t1 - t0) / dt)) + 1) * dt
-        g = h(tt)
-        if t0 == 0:
-            if g[0] <= 0 and float(h.derivative()(0.0)) < 0:
-                return 0.0
-            g[0] = max(g[0], 0.0)
+    @staticmethod
+    def _first(h, tt, g, B, safe):
+        """The first τ in ``(tt[0], tt[-1]]`` where ``h`` (samples ``g`` at ``tt``, curvature
+        bound ``B``) crosses zero downward, none before ``safe`` (inf if none)."""
         # the intervals the curvature bound cannot clear, in order, up to the first sample past
         # the surface
+        dt = tt[1] - tt[0]
         unclear = np.minimum(g[:-1], g[1:]) - B * dt ** 2 / 8 <= 0
         past = np.flatnonzero(g[1:] <= 0)
         if past.size:
             unclear[past[0] + 1:] = False
         for i in np.flatnonzero(unclear):
-            found = _hunt(h, tt[i], tt[i + 1], g[i], g[i + 1], B)
+            a, ga = tt[i], g[i]
+            if tt[i + 1] <= safe:
+                continue
+            if a < safe:
+                a, ga = safe, float(h(safe))
+            found = _hunt(h, a, tt[i + 1], ga, g[i + 1], B)
             if found is not None:
                 return found
         return np.inf
@@ -260,8 +258,7 @@ class ModalChain:
     def _next(self, X, lines, fired):
         """The segment's first event: ``(tau, key, kind)`` (tau inf: none ever)."""
         om = X.omega
-        slow = float(np.min(om[om > 0])) if np.any(om > 0) else 0.0
-        window = 4 * np.pi / slow if slow else np.inf
+        omax = float(np.max(om, initial=0.0))
         armed = []
         for key, kind, h, size in self._events(X, lines):
             size = START_TOL * size
@@ -276,16 +273,41 @@ class ModalChain:
                     (key == fired and dh0 > 0 and h0 < size):
                 h = _shift(h, size - h0)
             armed.append((key, kind, h))
-        t0 = 0.0
-        for _ in range(MAX_WINDOWS):
-            best = (np.inf, None, None)
-            for key, kind, h in armed:
-                tau = self._first(h, t0, t0 + window, float(np.max(om, initial=0.0)))
+        none = (np.inf, None, None)
+        if not armed:
+            return none
+        if omax == 0:   # no oscillation: quadratics, solved on the whole future
+            best = min(((_quadratic_first(float(h.c), float(h.p1), float(h.p2), self.scale),
+                         key, kind) for key, kind, h in armed), key=lambda b: b[0])
+            return best if np.isfinite(best[0]) else none
+        # every function at once, chunk by chunk (doubling) up to MAX_WINDOWS windows of two
+        # periods of the slowest mode
+        H = _Series(*(np.array([getattr(h, n) for _, _, h in armed]) for n in ("c", "p1", "p2")),
+                    np.stack([h.u for _, _, h in armed], axis=1),
+                    np.stack([h.w for _, _, h in armed], axis=1), om)
+        B = H.curvature_bound()
+        g0, dh0 = H(0.0), H.derivative()(0.0)
+        for e in np.flatnonzero((g0 <= 0) & (dh0 < 0))[:1]:
+            return 0.0, armed[e][0], armed[e][1]
+        # leaving its surface, h >= h(0) + τ (h'(0) - B τ / 2) > 0 up to 2 h'(0) / B: no
+        # crossing there (a restarted function is not bisected down to its rounding)
+        safe = np.where((dh0 > 0) & (B > 0), 2 * dh0 / np.where(B > 0, B, 1.0), 0.0)
+        dt = 1.0 / (PER_RADIAN * omax)
+        limit = MAX_WINDOWS * 4 * np.pi / float(np.min(om[om > 0]))
+        t0, n = 0.0, 64
+        while t0 < limit:
+            tt = t0 + np.arange(n + 1) * dt
+            G = H(tt)
+            if t0 == 0:
+                G[0] = np.maximum(G[0], 0.0)
+            best = none
+            for e, (key, kind, _) in enumerate(armed):
+                tau = self._first(H[e], tt, G[:, e], float(B[e]), float(safe[e]))
                 if tau < best[0]:
                     best = (tau, key, kind)
-            if best[1] is not None or not np.isfinite(window):
+            if best[1] is not None:
                 return best
-            t0 += window
+            t0, n = tt[-1], min(2 * n, 8192)
         raise RuntimeError(f"no event within {MAX_WINDOWS} windows")
 
     def run(self, max_events=200):
