@@ -18,7 +18,12 @@ the net contact force exceeds ``μ_s m g``), a stuck vehicle's net contact force
 ``±μ_s m g`` (break-away). Each is a sum of sinusoids and a quadratic in time with a known bound
 ``B`` on its second derivative, so between two samples ``Δ`` apart where it is positive it stays
 above ``min - B Δ² / 8``: an interval where that bound is not positive is bisected until the
-bound is or a sample is negative. No crossing can hide, however short.
+bound is or a sample is negative (a function leaving its surface at the segment's start is
+positive up to ``2 h'(0) / B``). No crossing can hide, however short. All the armed functions
+are sampled together, in chunks of growing length, until one crosses.
+
+Positions are kept relative to the rear vehicle's (only their differences enter), so that a
+deformation of 1e-3 ft is not the difference of two positions tens of feet down the road.
 
 :meth:`ModalChain.run` keeps every segment (its motion and each contact's force line), from which
 tests/hard/modal_metrics.py computes every metric.
