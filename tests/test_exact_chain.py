@@ -228,10 +228,12 @@ def test_braked_chains_match_the_independent_modal_solution(scene):
     sequence of events (stops and break-aways included) and every metric to 1e-8 of its scale,
     or within SciPy's own spread where it has not converged. (A chain SciPy cannot finish, a
     clear SimulationError, is not compared; nor one that ends with two stuck cars pressed
-    together, which lsc does not end: see the test below.)"""
+    together, which lsc does not end: see the test below; nor one whose last event comes after
+    the crash horizon, lsc.model.HybridModel.crash_horizon, where lsc ends a crash.)"""
     events, ref = reference(scene, 1e-12)
-    if ref["held"]:
-        reject()
+    if ref["held"] or events[-1][0] > HybridModel(lsc.Scene.load(scene)).crash_horizon:
+        reject()   # (or one the reference follows past lsc's crash horizon, where lsc ends it:
+        #            a car crawling at 7e-5 ft/s towards a stuck one 2 ft ahead, 35000 s on)
     try:
         r = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12, max_events=300,
                       max_steps=3000)
