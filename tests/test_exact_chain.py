@@ -10,6 +10,8 @@ with a feature it does not solve).
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 from hypothesis import given, reject, settings
@@ -240,7 +242,18 @@ def test_braked_chains_match_the_independent_modal_solution(scene):
     except lsc.SimulationError:
         reject()
     assert r.resolution == 1e-12
-    same_events(r, events, events[-1][0], [c.gap for c in r.scene.contacts])
+    try:
+        same_events(r, events, events[-1][0], [c.gap for c in r.scene.contacts])
+    except AssertionError:
+        # a chaotic chain (50 lb cars rattling 200 events between stiff contacts): SciPy at
+        # rtol 1e-12 and 2.5e-14 part at the 135th event and the reference at the 154th; where
+        # a relative change of 1e-14 in the rear car's speed changes the reference's own events,
+        # the sequence is rounding's, not the physics'
+        moved = copy.deepcopy(scene)
+        moved["vehicles"][0]["speed"] *= 1 + 1e-14
+        if [e[1:] for e in reference(moved, 1e-12)[0]] != [e[1:] for e in events]:
+            reject()
+        raise
     errors, tighter = metric_errors(r, r, ref, ref["closing_speed"]), None
     for name, err in errors.items():
         if err > 1e-8 and tighter is None:
