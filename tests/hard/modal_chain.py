@@ -1,17 +1,32 @@
-"""An independent solution of a chain of vehicles on linear IF-D contacts with a restitution,
-written here from the physics and sharing no code with lsc: the reference the event tests hold
-the integrators to.
+"""An independent solution of a chain of vehicles on IF-D contacts (linear or piecewise-linear
+loading, a straight unloading line set by a restitution, reloading along it) with optional
+constant braking (stick and slip), written here from the physics and sharing no code with lsc:
+the reference the exact backend and the integrators are held to.
 
-Between events every contact is open (no force), loading (``F = k D``) or on its unloading line
-(``F = k M + (k / e²)(D - M)``, ``M`` its max deformation), so the motion is linear,
-``m x'' = -K x + b``, and is solved exactly in its normal modes (each a sinusoid, or a free
-motion). The events are, each as a function crossing zero downward: an open contact reaching
-its permanent set (``D_perm - D``), a loading one's closing rate through zero (``Ḋ``), an
-unloading one's force reaching zero (``D - D_perm``) or its deformation passing ``M`` again
-(``M - D``). Each is a sum of sinusoids and a quadratic in time with a known bound ``B`` on its
-second derivative, so between two samples ``Δ`` apart where it is positive it stays above
-``min - B Δ² / 8``: an interval where that bound is not positive is bisected until the bound is
-or a sample is negative. No crossing can hide, however short.
+Between events every contact is open (no force), loading on one piece of its loading curve
+(``F = f_i + s_i (D - d_i)``) or on its unloading line (from ``(M, F_M)``, ``M`` its max
+deformation, down to its permanent set ``P = M - 2 e² E / F_M``, ``E`` the loading work up to
+``M``), and every braked vehicle slides (a constant force ``-μ m g`` against its motion) or is
+stuck (held: removed from the moving system), so the motion is linear, ``m x'' = -K x + b``, and
+is solved exactly in the normal modes of the moving vehicles (each a sinusoid, or a free motion
+with a constant acceleration). The events are, each as a function crossing zero downward: an open
+contact reaching its permanent set (``P - D``), a loading one's closing rate through zero
+(``Ḋ``) or its deformation reaching the next breakpoint (``d_{i+1} - D``), an unloading one's
+deformation reaching ``P`` (``D - P``: separation) or passing ``M`` again (``M - D``: reload onto
+the loading curve), a sliding vehicle's speed through zero (``±v``: it stops, and sticks unless
+the net contact force exceeds ``μ_s m g``), a stuck vehicle's net contact force reaching
+``±μ_s m g`` (break-away). Each is a sum of sinusoids and a quadratic in time with a known bound
+``B`` on its second derivative, so between two samples ``Δ`` apart where it is positive it stays
+above ``min - B Δ² / 8``: an interval where that bound is not positive is bisected until the
+bound is or a sample is negative (a function leaving its surface at the segment's start is
+positive up to ``2 h'(0) / B``). No crossing can hide, however short. All the armed functions
+are sampled together, in chunks of growing length, until one crosses.
+
+Positions are kept relative to the rear vehicle's (only their differences enter), so that a
+deformation of 1e-3 ft is not the difference of two positions tens of feet down the road.
+
+:meth:`ModalChain.run` keeps every segment (its motion and each contact's force line), from which
+tests/hard/modal_metrics.py computes every metric.
 """
 
 from __future__ import annotations
@@ -25,10 +40,13 @@ PER_RADIAN = 4.0
 #: Where a function that starts a segment on its surface and leaves it is moved, relative to
 #: its scale (a segment starts on the surface of the event that ended the last one).
 START_TOL = 1e-13
+#: Windows (of two periods of the slowest mode) searched for the next event before giving up.
+MAX_WINDOWS = 10_000
 
 
 class _Series:
-    """``h(τ) = c + p1 τ + p2 τ² + Σ_j u_j cos(ω_j τ) + w_j sin(ω_j τ)`` (vectorised over τ)."""
+    """``h(τ) = c + p1 τ + p2 τ² + Σ_j u_j cos(ω_j τ) + w_j sin(ω_j τ)`` (vectorised over τ;
+    ``c, p1, p2`` (...), ``u, w`` (n_modes, ...))."""
 
     def __init__(self, c, p1, p2, u, w, omega):
         self.c, self.p1, self.p2, self.u, self.w, self.omega = c, p1, p2, u, w, omega
@@ -36,175 +54,377 @@ class _Series:
     def __call__(self, tau):
         tau = np.asarray(tau, float)
         ph = np.multiply.outer(tau, self.omega)
-        return self.c + self.p1 * tau + self.p2 * tau ** 2 + np.cos(ph) @ self.u + \
+        t = tau.reshape(tau.shape + (1,) * np.ndim(self.c))
+        return self.c + self.p1 * t + self.p2 * t ** 2 + np.cos(ph) @ self.u + \
             np.sin(ph) @ self.w
 
     def derivative(self):
         om = self.omega.reshape((-1,) + (1,) * (np.ndim(self.u) - 1))
-        return _Series(self.p1, 2 * self.p2, 0.0, self.w * om, -self.u * om, self.omega)
+        return _Series(self.p1, 2 * self.p2, 0.0 * self.p2, self.w * om, -self.u * om,
+                       self.omega)
 
-    def curvature_bound(self) -> float:
+    def __getitem__(self, j):
+        return _Series(self.c[j], self.p1[j], self.p2[j], self.u[:, j], self.w[:, j],
+                       self.omega)
+
+    def __neg__(self):
+        return _Series(-self.c, -self.p1, -self.p2, -self.u, -self.w, self.omega)
+
+    def __add__(self, other):
+        return _Series(self.c + other.c, self.p1 + other.p1, self.p2 + other.p2,
+                       self.u + other.u, self.w + other.w, self.omega)
+
+    def scaled(self, a, b=0.0):
+        """``a h + b``."""
+        return _Series(a * self.c + b, a * self.p1, a * self.p2, a * self.u, a * self.w,
+                       self.omega)
+
+    def curvature_bound(self):
         """A bound on ``|h''|`` for all τ."""
-        return float(2 * abs(self.p2) + np.sum(np.hypot(self.u, self.w) * self.omega ** 2))
+        om = self.omega.reshape((-1,) + (1,) * (np.ndim(self.u) - 1))
+        return 2 * np.abs(self.p2) + np.sum(np.hypot(self.u, self.w) * om ** 2, axis=0)
+
+
+def _shift(h, c):
+    return _Series(h.c + c, h.p1, h.p2, h.u, h.w, h.omega)
 
 
 class ModalChain:
-    """A chain (masses ``m`` (N,), speeds ``v`` (N,), per contact ``k``, ``e``, ``gap``), rear to
-    front, solved segment by segment; :meth:`run` returns the final speeds and the events."""
+    """A chain, rear to front, solved segment by segment: masses ``m`` (N,), speeds ``v`` (N,);
+    per contact a loading stiffness ``k`` or a loading ``table`` (``[[d, F], ...]`` from
+    ``(0, 0)``, its last piece extended), a restitution ``e`` and a ``gap``; per vehicle an
+    optional ``(mu, mu_static)`` brake, with gravity ``g``. :meth:`run` returns the final speeds
+    (at the last separation) and the events ``(time, index, kind)`` (a vehicle's index for
+    ``stop``, ``reversal`` and ``break_away``)."""
 
-    def __init__(self, m, v, k, e, gap):
-        self.m, self.k, self.e = (np.asarray(a, float) for a in (m, k, e))
+    def __init__(self, m, v, k, e, gap, tables=None, brakes=None, g=32.174):
+        self.m, self.e = (np.asarray(a, float) for a in (m, e))
         self.gap = np.asarray(gap, float)
-        self.N, self.K = len(self.m), len(self.k)
+        self.N, self.K = len(self.m), len(self.e)
+        self.g = float(g)
+        tables = tables if tables is not None else [None] * self.K
+        self.d, self.f, self.s, self.work = [], [], [], []
+        for kj, tab in zip(k, tables):
+            tab = np.array([[0.0, 0.0], [1.0, float(kj)]] if tab is None else tab, float)
+            d, f = tab[:, 0], tab[:, 1]
+            s = np.diff(f) / np.diff(d)
+            self.d.append(d[:-1])
+            self.f.append(f[:-1])
+            self.s.append(s)
+            # loading work up to each breakpoint
+            self.work.append(np.concatenate([[0.0], np.cumsum(0.5 * (f[1:-1] + f[:-2]) *
+                                                              np.diff(d[:-1]))]))
+        brakes = brakes if brakes is not None else [None] * self.N
+        self.braked = np.array([b is not None for b in brakes])
+        self.mu = np.array([b[0] if b else 0.0 for b in brakes], float)
+        self.mus = np.array([b[1] if b else 0.0 for b in brakes], float)
         self.C = np.zeros((self.K, self.N))
         self.C[np.arange(self.K), np.arange(self.K)] = 1.0
         self.C[np.arange(self.K), np.arange(self.K) + 1] = -1.0
         self.x, self.v = np.zeros(self.N), np.asarray(v, float).copy()
         closing = self.C @ self.v
         self.mode = np.where((self.gap == 0) & (closing > 0), LOADING, OPEN)
+        self.piece = np.zeros(self.K, int)
         self.M = np.zeros(self.K)        # max deformation
+        self.FM = np.zeros(self.K)       # force there
         self.perm = np.zeros(self.K)     # permanent set
+        self.ec = np.zeros(self.K)       # loading work up to M
+        self.er = np.zeros(self.K)       # work the unloading line returns
         self.scale = float(np.max(np.abs(closing)))
+        self.slide = np.ones(self.N, bool)
+        self.dir = np.sign(self.v)
+        for i in np.flatnonzero(self.braked):
+            self._settle(i, initial=True)
+        self.segments, self.log = [], []
+        self.v0, self.touching0 = self.v.copy(), self.mode == LOADING
+
+    @classmethod
+    def from_scene(cls, scene: dict) -> "ModalChain":
+        """From a scene dict in US units with only the keys tests' chains use (read here, not
+        by lsc)."""
+        assert scene["units"] == "US" and "g" not in scene
+        veh, con = scene["vehicles"], scene["contacts"]
+        assert all(set(v) <= {"mass", "speed", "brake"} for v in veh)
+        assert all(set(c) <= {"loading", "unloading", "gap"} and set(c["unloading"]) ==
+                   {"restitution"} for c in con)
+        brakes = [(b["mu"], b.get("mu_static", b["mu"])) if (b := v.get("brake")) else None
+                  for v in veh]
+        return cls([v["mass"] for v in veh], [v["speed"] for v in veh],
+                   [c["loading"].get("stiffness", 0.0) for c in con],
+                   [c["unloading"]["restitution"] for c in con],
+                   [c.get("gap", 0.0) for c in con],
+                   tables=[c["loading"].get("table") for c in con], brakes=brakes)
 
     # -- one segment's motion
-    def _pieces(self):
-        """Slope and offset of each contact's force, ``F = a + s D``, in the current modes."""
-        s = np.where(self.mode == LOADING, self.k, 0.0)
-        a = np.zeros(self.K)
-        unl = self.mode == UNLOADING
-        s[unl] = self.k[unl] / self.e[unl] ** 2
-        a[unl] = self.k[unl] * self.M[unl] - s[unl] * self.M[unl]
+    def lines(self):
+        """Each contact's force in its current mode, ``F = a + s D``: ``(a, s)`` (K,)."""
+        a, s = np.zeros(self.K), np.zeros(self.K)
+        for j in range(self.K):
+            if self.mode[j] == LOADING:
+                i = self.piece[j]
+                s[j] = self.s[j][i]
+                a[j] = self.f[j][i] - s[j] * self.d[j][i]
+            elif self.mode[j] == UNLOADING:
+                s[j] = self.FM[j] / (self.M[j] - self.perm[j])
+                a[j] = self.FM[j] - s[j] * self.M[j]
         return a, s
 
     def _modes(self):
-        """The segment's motion: ``x(τ) = X(τ)``, ``v(τ) = V(τ)`` as _Series per vehicle."""
-        a, s = self._pieces()
+        """The segment's motion ``x(τ)`` as a _Series over the vehicles, and the force lines."""
+        a, s = self.lines()
         Kmat = self.C.T @ (s[:, None] * self.C)
-        b = -self.C.T @ (a - s * self.gap)
-        r = 1.0 / np.sqrt(self.m)
-        lam, Q = np.linalg.eigh(r[:, None] * Kmat * r[None, :])
-        T = r[:, None] * Q                      # x = T q
-        q0 = Q.T @ (np.sqrt(self.m) * self.x)
-        qd0 = Q.T @ (np.sqrt(self.m) * self.v)
-        beta = Q.T @ (r * b)
-        rigid = lam <= 1e-10 * max(float(np.max(lam)), 1e-300)
-        omega = np.sqrt(np.where(rigid, 0.0, lam))
-        centre = np.where(rigid, 0.0, beta / np.where(rigid, 1.0, lam))
-        amp_c = np.where(rigid, 0.0, q0 - centre)
-        amp_s = np.where(rigid, 0.0, qd0 / np.where(rigid, 1.0, omega))
-        # x_i = Σ_j T_ij q_j: constant, linear and quadratic parts from the rigid modes
-        const = T @ np.where(rigid, q0, centre)
-        p1 = T @ np.where(rigid, qd0, 0.0)
-        p2 = T @ np.where(rigid, 0.5 * beta, 0.0)
-        return const, p1, p2, T * amp_c, T * amp_s, omega
+        b = -self.C.T @ (a - s * self.gap) - np.where(
+            self.braked & self.slide, self.mu * self.m * self.g * self.dir, 0.0)
+        fr = np.flatnonzero(self.slide)
+        st = np.flatnonzero(~self.slide)
+        const, p1, p2 = self.x.copy(), np.zeros(self.N), np.zeros(self.N)
+        U, W, omega = np.zeros((self.N, fr.size)), np.zeros((self.N, fr.size)), np.zeros(fr.size)
+        if fr.size:
+            mf = self.m[fr]
+            bf = b[fr] - Kmat[np.ix_(fr, st)] @ self.x[st]
+            r = 1.0 / np.sqrt(mf)
+            lam, Q = np.linalg.eigh(r[:, None] * Kmat[np.ix_(fr, fr)] * r[None, :])
+            T = r[:, None] * Q                      # x = T q
+            q0 = Q.T @ (np.sqrt(mf) * self.x[fr])
+            qd0 = Q.T @ (np.sqrt(mf) * self.v[fr])
+            beta = Q.T @ (r * bf)
+            rigid = lam <= 1e-10 * max(float(np.max(lam)), 1e-300)
+            omega = np.sqrt(np.where(rigid, 0.0, lam))
+            centre = np.where(rigid, 0.0, beta / np.where(rigid, 1.0, lam))
+            const[fr] = T @ np.where(rigid, q0, centre)
+            p1[fr] = T @ np.where(rigid, qd0, 0.0)
+            p2[fr] = T @ np.where(rigid, 0.5 * beta, 0.0)
+            U[fr] = T * np.where(rigid, 0.0, q0 - centre)
+            W[fr] = T * np.where(rigid, 0.0, qd0 / np.where(rigid, 1.0, omega))
+        return _Series(const, p1, p2, U.T, W.T, omega), (a, s)
 
-    def _state(self, modes, tau):
-        const, p1, p2, U, W, om = modes
-        x = _Series(const, p1, p2, U.T, W.T, om)
-        return x(tau), x.derivative()(tau)
+    def _net(self, D, a, s):
+        """Net contact force on each vehicle, as a _Series (from the deformations ``D``)."""
+        F = D.scaled(s) + _Series(a, 0 * a, 0 * a, 0 * D.u, 0 * D.w, D.omega)
+        pad = _Series(np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((len(D.omega), 1)),
+                      np.zeros((len(D.omega), 1)), D.omega)
+        cat = lambda p, q: _Series(*(np.concatenate([getattr(p, n), getattr(q, n)], axis=-1)
+                                     for n in ("c", "p1", "p2", "u", "w")), D.omega)
+        return cat(pad, F) + -cat(F, pad)
 
-    def _events(self, modes):
-        """The armed event functions ``[(contact, kind, series, scale)]``."""
-        const, p1, p2, U, W, om = modes
-        D = _Series(self.C @ const - self.gap, self.C @ p1, self.C @ p2, (self.C @ U).T,
-                    (self.C @ W).T, om)
+    def _events(self, X, lines):
+        """The armed event functions ``[(key, kind, series, scale)]``; ``key``: ("c", contact)
+        or ("v", vehicle)."""
+        D = _Series(self.C @ X.c - self.gap, self.C @ X.p1, self.C @ X.p2, X.u @ self.C.T,
+                    X.w @ self.C.T, X.omega)
+        lscale, vscale = self.scale * self._time(), self.scale
         out = []
         for j in range(self.K):
-            Dj = _Series(D.c[j], D.p1[j], D.p2[j], D.u[:, j], D.w[:, j], om)
-            neg = _Series(-Dj.c, -Dj.p1, -Dj.p2, -Dj.u, -Dj.w, om)
+            Dj = D[j]
             if self.mode[j] == OPEN:
-                out.append((j, "contact", _shift(neg, self.perm[j]), "length"))
+                out.append((("c", j), "contact", _shift(-Dj, self.perm[j]), lscale))
             elif self.mode[j] == LOADING:
-                out.append((j, "max", Dj.derivative(), "speed"))
+                out.append((("c", j), "max", Dj.derivative(), vscale))
+                i = self.piece[j]
+                if i + 1 < len(self.d[j]):
+                    out.append((("c", j), "breakpoint", _shift(-Dj, self.d[j][i + 1]), lscale))
             else:
-                out.append((j, "separation", _shift(Dj, -self.perm[j]), "length"))
-                out.append((j, "reload", _shift(neg, self.M[j]), "length"))
+                out.append((("c", j), "separation", _shift(Dj, -self.perm[j]), lscale))
+                out.append((("c", j), "reload", _shift(-Dj, self.M[j]), lscale))
+        if self.braked.any():
+            net = self._net(D, *lines)
+            V = X.derivative()
+            for i in np.flatnonzero(self.braked):
+                if self.slide[i]:
+                    out.append((("v", i), "stop", V[i].scaled(self.dir[i]), vscale))
+                else:
+                    lim = self.mus[i] * self.m[i] * self.g
+                    out.append((("v", i), "break_forward", net[i].scaled(-1.0, lim), lim))
+                    out.append((("v", i), "break_backward", net[i].scaled(1.0, lim), lim))
         return out
 
-    def _first(self, h, horizon, omega_max):
-        """The first τ > 0 where ``h`` crosses zero downward (inf if none before ``horizon``)."""
-        h0, dh0 = float(h(0.0)), float(h.derivative()(0.0))
-        if h0 <= 0 and dh0 < 0:
-            return 0.0
-        if omega_max == 0:   # free flight: linear (a closing rate below rounding never closes)
-            if -h.p1 <= 1e-12 * self.scale:
-                return np.inf
-            roots = np.roots([h.p2, h.p1, h0]) if (h.p2 or h.p1) else []
-            roots = [float(t.real) for t in np.atleast_1d(roots) if t.imag == 0 and t.real > 0]
-            return min(roots, default=np.inf)
-        B = h.curvature_bound()
-        dt = 1.0 / (PER_RADIAN * omega_max)
-        tt = np.arange(int(np.ceil(horizon / dt)) + 1) * dt
-        g = h(tt)
-        g[0] = max(g[0], 0.0)
+    @staticmethod
+    def _first(h, tt, g, B, safe):
+        """The first τ in ``(tt[0], tt[-1]]`` where ``h`` (samples ``g`` at ``tt``, curvature
+        bound ``B``) crosses zero downward, none before ``safe`` (inf if none)."""
         # the intervals the curvature bound cannot clear, in order, up to the first sample past
         # the surface
+        dt = tt[1] - tt[0]
         unclear = np.minimum(g[:-1], g[1:]) - B * dt ** 2 / 8 <= 0
         past = np.flatnonzero(g[1:] <= 0)
         if past.size:
             unclear[past[0] + 1:] = False
         for i in np.flatnonzero(unclear):
-            found = _hunt(h, tt[i], tt[i + 1], g[i], g[i + 1], B)
+            a, ga = tt[i], g[i]
+            if tt[i + 1] <= safe:
+                continue
+            if a < safe:
+                a, ga = safe, float(h(safe))
+            found = _hunt(h, a, tt[i + 1], ga, g[i + 1], B)
             if found is not None:
                 return found
         return np.inf
 
-    def run(self, max_events=200):
-        """Final speeds (N,) and the list of ``(time, contact, kind)`` events."""
-        t, events, fired = 0.0, [], None
-        while True:
-            modes = self._modes()
-            om = modes[5]
-            # two periods of the slowest mode (or free flight, solved as a quadratic)
-            slow = float(np.min(om[om > 0])) if np.any(om > 0) else 0.0
-            horizon = 4 * np.pi / slow if slow else np.inf
-            best = (np.inf, None)
-            for j, kind, h, unit in self._events(modes):
-                size = START_TOL * self.scale * (1.0 if unit == "speed" else self._time())
-                h0 = float(h(0.0))
-                # the restart: a function that starts on its surface (the contact's own, just
-                # left) and does not go on into it is moved off it
-                if abs(h0) <= size and (j == fired or float(h.derivative()(0.0)) >= 0):
-                    h = _shift(h, size - h0)
-                tau = self._first(h, horizon, float(np.max(om)))
+    def _next(self, X, lines, fired):
+        """The segment's first event: ``(tau, key, kind)`` (tau inf: none ever)."""
+        om = X.omega
+        omax = float(np.max(om, initial=0.0))
+        armed = []
+        for key, kind, h, size in self._events(X, lines):
+            size = START_TOL * size
+            h0 = float(h(0.0))
+            # the restart: a function that starts on its surface (the event just fired) and
+            # does not go on into it is moved off it; one of the contact or vehicle that just
+            # fired that leaves its surface is moved off it however far its rounding put it
+            # past (a contact re-closing along its unloading line, its deformation the
+            # difference of positions many times larger: the separation at once otherwise)
+            dh0 = float(h.derivative()(0.0))
+            if (abs(h0) <= size and (key == fired or dh0 >= 0)) or \
+                    (key == fired and dh0 > 0 and h0 < size):
+                h = _shift(h, size - h0)
+            armed.append((key, kind, h))
+        none = (np.inf, None, None)
+        if not armed:
+            return none
+        if omax == 0:   # no oscillation: quadratics, solved on the whole future
+            best = min(((_quadratic_first(float(h.c), float(h.p1), float(h.p2), self.scale),
+                         key, kind) for key, kind, h in armed), key=lambda b: b[0])
+            return best if np.isfinite(best[0]) else none
+        # every function at once, chunk by chunk (doubling) up to MAX_WINDOWS windows of two
+        # periods of the slowest mode
+        H = _Series(*(np.array([getattr(h, n) for _, _, h in armed]) for n in ("c", "p1", "p2")),
+                    np.stack([h.u for _, _, h in armed], axis=1),
+                    np.stack([h.w for _, _, h in armed], axis=1), om)
+        B = H.curvature_bound()
+        g0, dh0 = H(0.0), H.derivative()(0.0)
+        for e in np.flatnonzero((g0 <= 0) & (dh0 < 0))[:1]:
+            return 0.0, armed[e][0], armed[e][1]
+        # leaving its surface, h >= h(0) + τ (h'(0) - B τ / 2) > 0 up to 2 h'(0) / B: no
+        # crossing there (a restarted function is not bisected down to its rounding)
+        safe = np.where((dh0 > 0) & (B > 0), 2 * dh0 / np.where(B > 0, B, 1.0), 0.0)
+        dt = 1.0 / (PER_RADIAN * omax)
+        limit = MAX_WINDOWS * 4 * np.pi / float(np.min(om[om > 0]))
+        t0, n = 0.0, 64
+        while t0 < limit:
+            tt = t0 + np.arange(n + 1) * dt
+            G = H(tt)
+            if t0 == 0:
+                G[0] = np.maximum(G[0], 0.0)
+            best = none
+            for e, (key, kind, _) in enumerate(armed):
+                tau = self._first(H[e], tt, G[:, e], float(B[e]), float(safe[e]))
                 if tau < best[0]:
-                    best = (tau, (j, kind))
-            if best[1] is None:
-                if np.all(self.mode == OPEN) and np.all(self.C @ self.v <= 1e-12 * self.scale):
-                    return self.v, events
-                raise RuntimeError("no event within two periods of a loaded chain")
-            tau, (fired, kind) = best
-            self.x, self.v = self._state(modes, tau)
+                    best = (tau, key, kind)
+            if best[1] is not None:
+                return best
+            t0, n = tt[-1], min(2 * n, 8192)
+        raise RuntimeError(f"no event within {MAX_WINDOWS} windows")
+
+    def run(self, max_events=200):
+        """Final speeds (N,) (at the last separation, or at the end of the run where nothing
+        separated) and the list of ``(time, index, kind)`` events; the segments
+        ``(t0, t1, X, (a, s))`` in :attr:`segments`."""
+        t, events, fired, v_post = 0.0, [], None, None
+        while True:
+            X, lines = self._modes()
+            tau, key, kind = self._next(X, lines, fired)
+            if key is None:
+                # over: every contact open and none closing, or held shut between two stuck
+                # vehicles (braked cars pressed together, friction holding the force), and no
+                # braked vehicle sliding
+                held = ~self.slide[:-1] & ~self.slide[1:]
+                if np.all((self.mode == OPEN) | held) and \
+                        np.all((self.C @ self.v <= 1e-12 * self.scale) | held) \
+                        and not np.any(self.braked & self.slide):
+                    # (the speeds at the last separation; at the end where none separated)
+                    self.v_post = self.v.copy() if v_post is None else v_post
+                    return self.v_post, events
+                raise RuntimeError("no event in a loaded chain")
+            self.segments.append((t, t + tau, X, lines))
+            self.x, self.v = X(tau), X.derivative()(tau)
+            # (only the positions' differences matter: kept small, so that a deformation of
+            # 1e-3 ft is not the difference of two positions tens of feet down the road)
+            self.x -= self.x[0]
             t += tau
-            events.append((t, fired, kind))
-            self._apply(fired, kind)
+            fired = key
+            name = self._apply(key[1], kind)
+            events.append((t, key[1], name))
+            self.log.append((t, key, name, self.v.copy()))
+            if "separation" in name:
+                v_post = self.v.copy()
             if len(events) > max_events:
                 raise RuntimeError("too many events")
 
     def _time(self) -> float:
         """A contact time scale [s] (for the restart tolerance of lengths)."""
         mu = np.min(self.m[:-1] * self.m[1:] / (self.m[:-1] + self.m[1:]))
-        return float(np.sqrt(mu / np.max(self.k)))
+        return float(np.sqrt(mu / max(np.max(np.concatenate(self.s)), 1e-300)))
+
+    def _settle(self, i, initial=False):
+        """Vehicle ``i`` (braked) at rest or moving: slides or sticks; True if it slides."""
+        if initial and self.v[i] != 0:
+            self.slide[i], self.dir[i] = True, np.sign(self.v[i])
+            return True
+        self.v[i] = 0.0
+        a, s = self.lines()
+        F = a + s * (self.C @ self.x - self.gap)
+        net = (F[i - 1] if i > 0 else 0.0) - (F[i] if i < self.K else 0.0)
+        pushed = abs(net) > self.mus[i] * self.m[i] * self.g
+        self.slide[i], self.dir[i] = pushed, (np.sign(net) if pushed else 0.0)
+        return pushed
 
     def _apply(self, j, kind):
+        """The state after event ``kind`` of contact or vehicle ``j``; lsc's name of it."""
+        if kind == "stop":
+            return "reversal" if self._settle(j) else "stop"
+        if kind in ("break_forward", "break_backward"):
+            self.slide[j], self.dir[j] = True, (1.0 if kind == "break_forward" else -1.0)
+            return "break_away"
         D = float(self.C[j] @ self.x - self.gap[j])
         if kind == "contact":
-            fresh = self.M[j] <= 0 or self.e[j] == 0
-            self.mode[j] = LOADING if fresh else UNLOADING
-        elif kind == "max":
-            self.M[j] = D
-            if self.e[j] == 0:
-                self.mode[j], self.perm[j] = OPEN, D
+            if self.M[j] <= 0 or self.perm[j] >= self.M[j]:
+                self._load(j, D)
             else:
-                self.mode[j], self.perm[j] = UNLOADING, D * (1 - self.e[j] ** 2)
-        elif kind == "separation":
+                self.mode[j] = UNLOADING
+            return "contact"
+        if kind == "breakpoint":
+            self.piece[j] += 1
+            return "breakpoint"
+        if kind == "max":
+            i = self.piece[j]
+            x = D - self.d[j][i]
+            F = self.f[j][i] + self.s[j][i] * x
+            self.M[j], self.FM[j] = D, F
+            self.ec[j] = self.work[j][i] + self.f[j][i] * x + 0.5 * self.s[j][i] * x * x
+            if self.e[j] == 0 or F <= 0:
+                self.mode[j], self.perm[j], self.er[j] = OPEN, D, 0.0
+                return "max_deformation+separation"
+            self.mode[j] = UNLOADING
+            self.perm[j] = D - 2 * self.e[j] ** 2 * self.ec[j] / F
+            self.er[j] = self.e[j] ** 2 * self.ec[j]
+            return "max_deformation"
+        if kind == "separation":
             self.mode[j] = OPEN
-        else:   # reload past the max deformation
-            self.mode[j] = LOADING
+            return "separation"
+        self._load(j, self.M[j])   # reload past the max deformation
+        return "reload_past_max"
+
+    def _load(self, j, D):
+        self.mode[j] = LOADING
+        self.piece[j] = max(int(np.searchsorted(self.d[j], D, side="right")) - 1, 0)
 
 
-def _shift(h, c):
-    return _Series(h.c + c, h.p1, h.p2, h.u, h.w, h.omega)
+def _quadratic_first(c, p1, p2, scale):
+    """First τ > 0 where ``c + p1 τ + p2 τ²`` (``c >= 0``) crosses zero downward (inf if
+    never; a rate below rounding with no acceleration never closes)."""
+    if c <= 0 and p1 < 0:
+        return 0.0
+    if p2 == 0:
+        return c / -p1 if -p1 > 1e-12 * scale else np.inf
+    disc = p1 * p1 - 4 * p2 * c
+    if disc < 0:
+        return np.inf
+    q = -0.5 * (p1 + np.copysign(np.sqrt(disc), p1))
+    roots = sorted(r for r in ((q / p2) if p2 else np.inf, (c / q) if q else np.inf) if r > 0)
+    for r in roots:
+        if p1 + 2 * p2 * r < 0 or (p1 + 2 * p2 * r == 0 and p2 < 0):
+            return float(r)
+    return np.inf
 
 
 def _hunt(h, a, b, ga, gb, B, depth=0):
