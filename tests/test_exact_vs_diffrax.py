@@ -70,7 +70,7 @@ def three_car_chains(draw):
 
 
 #: Found by this test (the middle car's two near-equal peaks: test_metrics.py)
-from test_exact_chain import _scale, _tie_order, _without_touches  # noqa: E402
+from hard.modal_compare import metric_scale, tie_order, without_touches  # noqa: E402
 from test_metrics import TWO_PEAKS  # noqa: E402
 
 
@@ -83,29 +83,28 @@ def test_exact_chain_matches_the_tightest_diffrax_solve_on_random_chains(scene):
     events, their times to 1e-8 of the run (a contact closing after a long flight at a small
     closing rate, a difference of speeds each known to ~1e-11, is timed to that over the rate:
     2e-8 of a 166 s run measured), every metric to 1e-10 of its scale (the peaks, which
-    diffrax locates on its dense output, an interpolant less accurate than its steps, to 1e-9:
-    1.6e-10 measured on a peak force and a peak acceleration, where SciPy at rtol 1e-13 gives
-    exact-chain's value to the last digit)."""
+    diffrax locates on its dense output, an interpolant less accurate than its steps, to 1e-8:
+    up to 1.9e-9 measured on peak forces and accelerations next to a contact of 1e6 lbf/ft,
+    where SciPy at rtol 1e-13 is 6e-11 from exact-chain's value)."""
     ex = lsc.solve(scene, method="exact-chain")
-    dx = lsc.solve(scene, method="diffrax", integrator="Dopri8", rtol=1e-13)
+    # (a light middle car rattling between heavy ones: 286 events, past diffrax's default 256)
+    dx = lsc.solve(scene, method="diffrax", integrator="Dopri8", rtol=1e-13, max_events=1024)
     t_run = ex.events[-1].time
     # (simultaneous events in rounding's order, and a contact reloaded back exactly to its max
     # deformation, a tangency rounding reads either way: as the modal comparison takes them)
-    ours, theirs = (_tie_order(_without_touches([(e.time, e.index, e.kind) for e in r.events],
+    ours, theirs = (tie_order(without_touches([(e.time, e.index, e.kind) for e in r.events],
                                                 t_run), t_run) for r in (ex, dx))
     assert [e[1:] for e in ours] == [e[1:] for e in theirs]
     assert max(abs(a[0] - b[0]) for a, b in zip(ours, theirs)) <= 1e-8 * t_run
     for name in METRICS:
         a, b = (np.asarray(getattr(r, name), float) for r in (ex, dx))
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
-        scale = _scale(ex, name)
-        if not np.isfinite(scale):   # (NaN where a contact never touched, or was pushed shut)
-            scale = np.max(np.abs(a[np.isfinite(a)]), initial=0.0)
+        scale = metric_scale(ex, name)
         if name.startswith("peak_acceleration"):
             # (a middle car's is the difference of its two contacts' forces over its mass: on
             # their scale, 10 ft/s² where the difference peaked at 1.78)
             pushes = np.max(np.maximum(np.r_[0.0, ex.peak_force], np.r_[ex.peak_force, 0.0])
                             / ex.scene.masses)
             scale = max(scale, pushes / (ex.scene.g if name.endswith("_g") else 1.0))
-        tol = (1e-9 if name.startswith("peak") else 1e-10) * scale
+        tol = (1e-8 if name.startswith("peak") else 1e-10) * scale
         np.testing.assert_allclose(a, b, rtol=0, atol=tol, equal_nan=True, err_msg=name)
