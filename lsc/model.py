@@ -10,9 +10,8 @@ joins vehicles ``k`` and ``k+1``, its deformation is ``D_k = x_k - x_{k+1} - gap
 Only the effects a scene declares are assembled: one law object per contact (:mod:`lsc.contact`),
 a brake effect per braked vehicle and a failure effect per contact with a failure force
 (:mod:`lsc.effects`; with a post-failure curve the IF-D law follows the spliced curve and
-reports the failure itself), and nothing else — the right-hand side evaluates no dormant term and
-registers no dormant event. Every method takes the array namespace ``xp`` (``numpy`` or
-``jax.numpy``), so all backends run this one copy of the physics.
+reports the failure itself), and nothing else: no dormant term, no dormant event. Every method
+takes the array namespace ``xp`` (``numpy`` or ``jax.numpy``): all backends run this one copy.
 
 The discrete state ``disc`` is a list: the contacts' states (K), then the brakes', then the
 failures'. Events are numbered in the same order; event ``i`` is event ``which`` of part ``j``.
@@ -25,18 +24,16 @@ from functools import cached_property
 import numpy as np
 
 from .contact import STATUS, make_law
-from .effects import FailureEffect, vehicle_effects
+from .effects import BrakeEffect, FailureEffect, vehicle_effects
 from .errors import SimulationError
 from .moving_frame import Frame
 
 __all__ = ["HybridModel", "Frame", "OVER_TOL", "MAX_ANGLE", "EVENT_UNITS"]
 
-#: Closing rates at most this fraction of the speed scale are rounding
-#: (:meth:`HybridModel.contacts_apart`).
+#: Closing rates at most this fraction of the speed scale are rounding (``contacts_apart``).
 OVER_TOL = 1e-12
 
-#: Longest integrator step, in radians of the fastest natural oscillation of the frozen contacts
-#: (:meth:`HybridModel.max_step`).
+#: Longest integrator step, in radians of the frozen contacts' fastest oscillation (``max_step``).
 MAX_ANGLE = 0.5
 
 #: The unit of each kind of event function (:meth:`HybridModel.event_scales`); a kind not named
@@ -297,29 +294,32 @@ class HybridModel:
                 raise SimulationError(f"contact {k} at t = {t:.6g} s: {STATUS[code]}")
 
     def is_over(self, y, disc, t=0.0, horizon=None, p=None, xp=np, v_scale=None):
-        """True when every contact is open for good (:meth:`contacts_apart`) and no braked
-        vehicle still slides (so no force acts and none can act again); arguments as
-        :meth:`contacts_apart` (a traced boolean on ``jax.numpy``)."""
+        """True when every contact is open for good, or shut between two stuck vehicles
+        (:meth:`contacts_apart`), and no braked vehicle slides (no force changes, none can act
+        again); arguments as :meth:`contacts_apart` (a traced boolean on ``jax.numpy``)."""
         held = [st["mode"] == 0 for st in disc[self.K: self.K + len(self.brakes)]]
         if xp is np and not all(held):
             return False
-        over = self.contacts_apart(y, disc, t, horizon, p, xp, v_scale)
+        # (a contact shut between two stuck vehicles stays so: nothing moves, no force changes)
+        stuck = {b.i for b in self.brakes if isinstance(b, BrakeEffect)}   # (all held)
+        shut = [k in stuck and k + 1 in stuck for k in range(self.K)]
+        over = self.contacts_apart(y, disc, t, horizon, p, xp, v_scale, shut)
         for h in held:
             over = over & h
         return bool(over) if xp is np else over
 
-    def contacts_apart(self, y, disc, t=0.0, horizon=None, p=None, xp=np, v_scale=None):
-        """True when every contact is open and none will close again (braked vehicles may still
+    def contacts_apart(self, y, disc, t=0.0, horizon=None, p=None, xp=np, v_scale=None,
+                       shut=None):
+        """True when every contact (but those ``shut`` (K,) may leave shut: between two stuck
+        vehicles, :meth:`is_over`) is open and none will close again (braked vehicles may still
         slide): with every contact open no force acts, each vehicle keeps its speed, and contact
         ``k`` closes again at ``t + gap_k / rate_k`` (``gap_k`` [length]: what is left to close,
         :meth:`~lsc.contact.HysteresisLaw.closing_gap`; ``rate_k``: its closing rate). It will
         not when ``rate_k`` is rounding (at most ``OVER_TOL`` of the speed scale ``v_scale``,
         default :meth:`speed_scale`), or when that time is after ``horizon`` [s] (default
-        :meth:`horizon`, the time by which a crash of this scene is over): a pair of an elastic
-        chain left closing at 1e-11 ft/s by the integrator's error, 2 ft apart, would close
-        again after 2e11 s. ``t`` [s]: now; ``y`` (n,), ``disc``: one scene's state; ``p``,
-        ``xp``: parameters and array namespace (``jax.numpy`` in a traced solve, where the
-        result is a traced boolean)."""
+        :meth:`horizon`): a pair of an elastic chain left closing at 1e-11 ft/s, 2 ft apart,
+        would close again after 2e11 s. ``t`` [s]: now; ``y`` (n,), ``disc``: one scene's state;
+        ``p``, ``xp``: parameters and namespace (``jax.numpy``: a traced boolean)."""
         if p is None:
             p = self.params
             v_scale = self.v_scale if v_scale is None else v_scale
@@ -331,7 +331,8 @@ class HybridModel:
         gaps = xp.stack([xp.asarray(law.closing_gap(D[k], disc[k]), dtype=float)
                          for k, law in enumerate(self.laws)])
         late = gaps > Dd * (horizon - t)
-        apart = xp.all(modes == 0) & xp.all((Dd <= OVER_TOL * v_scale) | late)
+        idle = (modes == 0) & ((Dd <= OVER_TOL * v_scale) | late)
+        apart = xp.all(idle if shut is None else idle | xp.asarray(shut))
         return bool(apart) if xp is np else apart
 
     # ------------------------------------------------------------------ scales
