@@ -78,9 +78,10 @@ def test_the_pair_of_crossings_the_old_search_missed_lies_inside_one_step():
     from lsc.solvers.scipy_ode import MAX_ANGLE
 
     _, ref_events = _modal(REPRODUCER)
-    reload = [i for i, (_, j, kind) in enumerate(ref_events) if kind == "reload" and j == 1]
+    reload = [i for i, (_, j, kind) in enumerate(ref_events)
+              if kind == "reload_past_max" and j == 1]
     gaps = [ref_events[i + 1][0] - ref_events[i][0] for i in reload
-            if ref_events[i + 1][2] == "max"]
+            if ref_events[i + 1][2] == "max_deformation"]
     m = np.array([1150, 1290]) / G_US
     w_unload = np.sqrt(396000 / 0.807 ** 2 * (1 / m[0] + 1 / m[1]))
     assert min(gaps) < MAX_ANGLE / w_unload
