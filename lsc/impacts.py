@@ -104,7 +104,13 @@ def _in_order(found: list, resolution: float) -> list:
     return out
 
 
-def _pushed_from_the_start(found: list, t: list, v: list, speeds: list, v_max: float,
+def _touch_speeds(t: list, v: list, speeds: list, t0: float, t1: float) -> list:
+    """The speeds (N,) at the touch of an episode ``[t0, t1]``: the initial ``speeds`` at
+    t = 0, else the first row of the episode."""
+    return speeds if t0 == 0.0 else v[_rows(t, t0, t1)[0]]
+
+
+def _pushed_from_the_start(found: list, K: int, t: list, v: list, speeds: list, v_max: float,
                            resolution: float) -> list:
     """The episodes ``found`` with each contact's first one that was pushed shut during its
     neighbour's first impact started at that impact's touch, and put in order again
@@ -112,13 +118,12 @@ def _pushed_from_the_start(found: list, t: list, v: list, speeds: list, v_max: f
     such a touch only once the deformation passes its rounding, an integrator microseconds
     late, so that the impacts' order, ``Result.first_impact`` and ``duration`` agree on every
     backend)."""
-    K = max(e[0] for e in found) + 1
     ct, end, pushed, first = np.full(K, np.nan), np.full(K, np.nan), np.zeros(K, bool), {}
     for i, (k, t0, t1, _) in enumerate(found):
         if k in first:
             continue
         first[k] = i
-        row = speeds if t0 == 0.0 else v[_rows(t, t0, t1)[0]]
+        row = _touch_speeds(t, v, speeds, t0, t1)
         ct[k], end[k] = t0, t1
         pushed[k] = not row[k] - row[k + 1] > PUSHED * v_max
     eff = simultaneous_touch(ct, end, pushed)
@@ -208,20 +213,19 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
     # are finite, Result.build checked them)
     t, v, a, force = (rows[key].tolist() for key in ("t", "v", "a", "force"))
     K = rows["deformation"].shape[1]
+    v_post, speeds = np.asarray(v_post, float).tolist(), np.asarray(speeds, float).tolist()
     found = episodes(events, K, t[-1], resolution)
     if K > 1 and found:
-        found = _pushed_from_the_start(found, t, v, np.asarray(speeds, float).tolist(),
-                                       v_max, resolution)
+        found = _pushed_from_the_start(found, K, t, v, speeds, v_max, resolution)
     t_post = max((e[2] for e in found if e[3]), default=np.nan)
     count = [0] * K
     for e in found:
         count[e[0]] += 1
-    v_post, speeds = np.asarray(v_post, float).tolist(), np.asarray(speeds, float).tolist()
     impacts = []
     for k, t0, t1, separated in found:
         span = _rows(t, t0, t1)
         pair = (k, k + 1)
-        vs = tuple(speeds[i] if t0 == 0.0 else v[span[0]][i] for i in pair)
+        vs = tuple(_touch_speeds(t, v, speeds, t0, t1)[i] for i in pair)
         ve = tuple(v_post[i] if t1 == t_post else v[span[-1]][i] for i in pair)
         force_k, peak_a = _raised(_largest([force[j][k] for j in span]),
                                   tuple(_signed_peak([a[j][i] for j in span]) for i in pair),

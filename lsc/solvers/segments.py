@@ -265,9 +265,8 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
     rows = np.arange(n_q)
     largest = (rows < K) | (rows >= K + N)   # forces and deformations: their largest value
 
-    def quantities(s, t):
-        """Forces, accelerations and deformations (2K + N, len(t)) at times ``t``."""
-        q = _values(model, s, np.atleast_1d(t), pp)
+    def stacked(q):
+        """Forces, accelerations and deformations (2K + N, ·) of :func:`_values`'s ``q``."""
         return np.concatenate([q["force"], q["a"], q["deformation"]])
 
     spans = []
@@ -279,14 +278,15 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
                     MAX_PROBES))
         tt = np.linspace(s.t0, s.t1, n)
         probed = _values(model, s, tt, pp)
-        q = np.concatenate([probed["force"], probed["a"], probed["deformation"]])
+        q = stacked(probed)
         obj = np.where(largest[:, None], q, np.abs(q))
         # every local maximum of the samples (ends included): its neighbours bracket a maximum
         pad = np.full((n_q, 1), -np.inf)
         left, right = np.hstack([pad, obj[:, :-1]]), np.hstack([obj[:, 1:], pad])
         peak = (obj > left) & (obj >= right)   # (a plateau: its first sample)
         if omega > 0:   # (not one that cannot reach its quantity's largest sample: |q''| <=
-            #              ω² |q|max bounds the rise between probes Δ apart by (ω Δ)² |q|max / 8)
+            #              ω² |q|max bounds the rise between probes Δ apart by (ω Δ)² |q|max / 8;
+            #              8 times that is kept)
             top = np.max(obj, axis=1, keepdims=True)
             rise = (omega * (tt[1] - tt[0])) ** 2 * np.max(np.abs(q), axis=1, keepdims=True)
             peak &= obj >= top - rise
@@ -297,7 +297,7 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
         cols = np.arange(row.size)
 
         def value(t):
-            return sgn * quantities(s, t)[row, cols]
+            return sgn * stacked(_values(model, s, t, pp))[row, cols]
 
         fa, fb = value(a), value(b)
         for _ in range(iterations):
@@ -315,37 +315,37 @@ def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 4
         order = np.lexsort((found, row))   # by quantity, then by value
         last = order[np.r_[np.nonzero(np.diff(row[order]))[0], order.size - 1]]
         sign = np.where(largest, 1.0, sgn[last])   # (every quantity has a local maximum)
-        floored = _rounding_floor(model, s, probed, best, K, N)
-        a0, a1 = probed["a"][:, 0], probed["a"][:, -1]
-        end_sign = np.where(np.abs(a0) >= np.abs(a1), np.sign(a0), np.sign(a1))
-        sign[K:K + N] = np.where(floored[K:K + N] != best[K:K + N], end_sign, sign[K:K + N])
-        best = floored
+        best, sign = _rounding_floor(model, s, probed, best, sign, K, N)
         spans.append((s.t0, s.t1, best[:K], sign[K:K + N] * best[K:K + N],
                       np.where(turn, best[K + N:], -np.inf)))
     return spans
 
 
 
-def _rounding_floor(model, s, probed, best, K: int, N: int) -> np.ndarray:
-    """``best`` (2K + N,) with each force and acceleration peak found inside segment ``s`` that
-    rises above the segment's ends by no more than the rounding of the dense output's absolute
-    positions times the contact slopes (4 ulps of the largest position; ``probed``:
-    :func:`_values` at the probes) taken back to the larger end: such a rise is noise, not a
-    peak. A near-plastic rebound line (e = 1e-6: 5.4e18 lbf/ft) 167 ft down the road turns one
-    ulp of the positions, 2.8e-14 ft, into 1.5e5 lbf: diffrax reported 3.09e5 lbf as the peak
-    force where the contact's largest force is 3891.5 lbf."""
+def _rounding_floor(model, s, probed, best, sign, K: int, N: int) -> tuple:
+    """``best`` (2K + N,) and ``sign`` with each force and acceleration peak found inside
+    segment ``s`` that rises above the segment's ends by no more than the rounding of the dense
+    output's absolute positions times the contact slopes (4 ulps of the largest position;
+    ``probed``: :func:`_values` at the probes) taken back to the larger end, with its sign: such
+    a rise is noise, not a peak. A near-plastic rebound line (e = 1e-6: 5.4e18 lbf/ft) 167 ft
+    down the road turns one ulp of the positions, 2.8e-14 ft, into 1.5e5 lbf: diffrax reported
+    3.09e5 lbf as the peak force where the contact's largest force is 3891.5 lbf."""
     ulp = float(np.spacing(np.max(np.abs(probed["y"][:N]))))
     slope = np.array([abs(float(st["s"])) if "s" in st and int(st["mode"]) else 0.0
                       for st in s.disc[:K]])
     noise = 4.0 * slope * ulp   # (K,) force
     if not np.any(noise > 0):
-        return best
+        return best, sign
     F, a = probed["force"], probed["a"]
     f_end = np.maximum(F[:, 0], F[:, -1])
-    best = best.copy()
+    best, sign = best.copy(), sign.copy()
     best[:K] = np.where(best[:K] - f_end <= noise, f_end, best[:K])
     pad = np.zeros(1)
     noise_a = (np.r_[pad, noise] + np.r_[noise, pad]) / np.asarray(model.params["m"], float)
-    a_end = np.maximum(np.abs(a[:, 0]), np.abs(a[:, -1]))
-    best[K:K + N] = np.where(best[K:K + N] - a_end <= noise_a, a_end, best[K:K + N])
-    return best
+    a0, a1 = a[:, 0], a[:, -1]
+    a_end = np.maximum(np.abs(a0), np.abs(a1))
+    moved = (best[K:K + N] - a_end <= noise_a) & (best[K:K + N] != a_end)
+    best[K:K + N] = np.where(moved, a_end, best[K:K + N])
+    sign[K:K + N] = np.where(moved, np.where(np.abs(a0) >= np.abs(a1), np.sign(a0), np.sign(a1)),
+                             sign[K:K + N])
+    return best, sign
