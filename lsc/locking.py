@@ -69,7 +69,7 @@ from .model import HybridModel
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
            "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
            "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces",
-           "locked_forces", "hold_force"]
+           "locked_forces", "hold_force", "pressed", "PRESS_TOL"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
@@ -83,6 +83,10 @@ WATCH_RESTITUTION = 0.05
 #: the integrators do not resolve, and a pair pressed on it rings over 1e5 times faster than
 #: its contact (the plain law chatters). From 1e-5 on, only a counted chatter locks.
 LOCK_RESTITUTION = 1e-5
+
+#: A force within this fraction of the force scale of zero is pressed where it rises
+#: (:func:`pressed`).
+PRESS_TOL = 1e-13
 
 #: The model feature of a scene whose pairs may lock (:func:`lock_features`).
 FEATURE = "contact:lock"
@@ -132,6 +136,22 @@ def hold_force(model, y, disc, p, mask, k, xp=np):
     F = HybridModel.forces(model, y, disc, p, xp)
     rows, _ = locked_forces(F, p["m"], mask, model.K, xp)
     return rows[k]
+
+
+def pressed(model, y, disc, p, mask, xp=np) -> tuple[list, list]:
+    """``(rows, pressed)``: the forces (K) [force] the contacts carry with those where
+    ``mask`` is true locked (:func:`hold_force`), and whether each is pressed: its force
+    positive, or within :data:`PRESS_TOL` of the force scale of zero and rising (the laws'
+    slopes times the closing rates, by the same linear cluster law): a pair whose pusher
+    touches at this instant is pressed from it on, though its force starts from zero (an
+    exact backend sees that instant; an integrator, a moment later, a small positive force)."""
+    F = HybridModel.forces(model, y, disc, p, xp)
+    _, Dd = model.deformation(y, p, xp)
+    rate = xp.stack([xp.asarray(disc[j]["s"], float) * Dd[j] for j in range(model.K)])
+    rows, _ = locked_forces(F, p["m"], mask, model.K, xp)
+    rates, _ = locked_forces(rate, p["m"], mask, model.K, xp)
+    tol = PRESS_TOL * model.force_scale(p, xp)
+    return rows, [(f > 0.0) | ((f > -tol) & (r > 0.0)) for f, r in zip(rows, rates)]
 
 
 def closing_step(w: int, was: dict, now: dict):
@@ -389,8 +409,8 @@ class LockingModel(HybridModel):
         close, opened = closing_step(w, was, now)
 
         def counted():
-            pressed = hold_force(self, y, new, p, self._mask(new, k), k, xp) > 0.0
-            count, watch = recount(close, pressed, lock["count"], now["mode"], xp)
+            press = pressed(self, y, new, p, self._mask(new, k), xp)[1][k]
+            count, watch = recount(close, press, lock["count"], now["mode"], xp)
             return dict(lock, count=count, watch=watch)
         lock = _lazy(close | opened, counted, lambda: lock, xp)
         out = list(new)
@@ -401,7 +421,8 @@ class LockingModel(HybridModel):
         """``new`` with contact ``k`` locked where its neighbours press it inside the law's
         range (``0 < F_k < ftop``); ``saved``: the law's state to release into, ``records``:
         the state whose history (``dmax, fmax, dperm, ec, er``) the locked contact keeps."""
-        force = hold_force(self, y, new, p, self._mask(new, k), k, xp)
+        rows, press = pressed(self, y, new, p, self._mask(new, k), xp)
+        force = rows[k]
 
         def lock():
             D, _ = self.deformation(y, p, xp)
@@ -411,7 +432,7 @@ class LockingModel(HybridModel):
             off = self._lock_offset
             out[off + k] = LockPart.locked(new[off + k], saved, ftop, D[k], kind)
             return out
-        return if_((0.0 < force) & (force < ftop), lock, lambda: new, xp)
+        return if_(press[k] & (force < ftop), lock, lambda: new, xp)
 
     def _release(self, k, high, y, new, p, xp=np):
         """``new`` with contact ``k``'s lock released: onto the law's saved state (reloading
@@ -440,8 +461,8 @@ class LockingModel(HybridModel):
             mask = self._mask(new)
             if none(mask):
                 break
-            rows, _ = locked_forces(self._law_forces(y, new, p, xp), p["m"], mask, self.K, xp)
-            out = [mask[k] & not_((0.0 < rows[k]) & (rows[k] < new[off + k]["ftop"]))
+            rows, press = pressed(self, y, new, p, mask, xp)
+            out = [mask[k] & not_(press[k] & (rows[k] < new[off + k]["ftop"]))
                    for k in range(self.K)]
             if none(out):
                 break

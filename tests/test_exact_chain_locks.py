@@ -359,3 +359,79 @@ def test_a_contact_pushed_through_soft_contacts_beside_a_stiff_pair_agrees_with_
     assert _without_first_closings(exact, touching) == _without_first_closings(ref, touching)
     check_agrees(ref, exact)
     check_result(exact)
+
+
+def _pile_up(e_front: float) -> dict:
+    """scripts/bench_chain.py's pile-up (15 mph into two stopped cars) with a near-plastic
+    front pair of restitution ``e_front``."""
+    return {"units": "US",
+            "vehicles": [{"weight": 3500, "speed": "15 mph"}, {"weight": 2800, "speed": 0},
+                         {"weight": 4200, "speed": 0}],
+            "contacts": [{"loading": {"stiffness": 24000},
+                          "unloading": {"restitution": e_front}},
+                         {"loading": {"stiffness": 50000}, "unloading": {"restitution": 0.3},
+                          "gap": 0.1}]}
+
+
+def test_a_rebound_line_narrower_than_a_segment_start_resolves_is_left_at_once():
+    """e = 1e-7: the rear pair locks at its max deformation (rule 1) and is released when the
+    middle car leaves the front one, onto its rebound line, e² D_max = 1e-14 ft wide (the law
+    drops a rebound only below 4 ulps of D_max, 2e-16 ft): narrower than a segment start
+    resolves (1e-13 of the scene's length, 7.5e-14 ft), so every event function of the line
+    started on its surface with every derivative within its rounding, and exact-chain rang there
+    until its sample budget ran out (a SimulationError from ``auto``). Pressed apart, it now
+    separates at once: the same events as SciPy, which resolves that rebound, and the final
+    speeds within the rebound's own speed, e times the closing speed. (The release, the
+    middle car's separation and the rear pair's come at one instant, in an order rounding
+    picks, SciPy's differing between tolerances; SciPy's rear separation, after following the
+    rebound, 7e-9 s later.)"""
+    e = 1e-7
+    scene = _pile_up(e)
+    r = lsc.solve(scene)
+    ref = lsc.solve(scene, method="scipy", rtol=RTOL)
+    assert r.method == "exact-chain" and _locks(r)
+    ours, theirs = (sorted((e.kind, e.index, e.time) for e in x.events) for x in (r, ref))
+    assert [e[:2] for e in ours] == [e[:2] for e in theirs]
+    assert max(abs(a[2] - b[2]) for a, b in zip(ours, theirs)) <= 1e-7 * ref.duration_total
+    v0 = closing_scale(r.scene)
+    assert np.max(np.abs(r.v_final - ref.v_final)) <= 2 * e * v0
+    check_result(r)
+    assert momentum_error(r) <= 1e-14
+
+
+#: A 6-car chain (hypothesis, e from 0: a random chain of tests/test_exact_chain.py's strategy)
+#: whose contact 2 (e = 0) sits at its permanent set, touching its front car at the same speed
+#: (a plastic impact before), when contact 1 closes behind it: pushed shut at that instant,
+#: contact 2 reloads, turns at once and, plastic, separates at once. Its press force is then
+#: exactly zero (contact 1 has just touched) though rising, and the lock rule (0 < F) did not
+#: lock it: it closed again at once, 10,000 times at t = 0.93565 s (the event limit).
+PRESSED_FROM_ZERO = {
+    "units": "US",
+    "vehicles": [{"mass": 671.169788951079, "speed": 2.0}, {"mass": 452.25166305798547, "speed": 1.0},
+                 {"mass": 160.25271659434807, "speed": 1.0}, {"mass": 79.43282347242814, "speed": 0.0},
+                 {"mass": 50.0, "speed": 0.0}, {"mass": 50.0, "speed": 0.0}],
+    "contacts": [
+        {"loading": {"table": [[0.0, 0.0], [0.001, 1.0], [0.002, 1.0], [1000.0, 9999981.0]]},
+         "unloading": {"restitution": 0.7}, "gap": 0.0},
+        {"loading": {"stiffness": 2033804.9134619036}, "unloading": {"restitution": 1.0},
+         "gap": 1.0},
+        {"loading": {"table": [[0.0, 0.0], [0.001, 1.0], [0.002, 1.0], [1000.0, 9999981.0]]},
+         "unloading": {"restitution": 0.0}, "gap": 0.0},
+        {"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}, "gap": 1.0},
+        {"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}, "gap": 1.0}]}
+
+
+def test_a_pair_pressed_from_zero_force_locks():
+    """A press force within rounding of zero that rises (the laws' slopes times the closing
+    rates, lsc.locking.pressed) presses: contact 2 locks at the instant contact 1 touches, as
+    SciPy locks it a moment later (6e-7 s: its event detection, when the force is positive),
+    with the same events and SciPy converging on exact-chain's final speeds as its tolerance
+    tightens (2.3e-10 at rtol 1e-10, 7.2e-11 at 1e-11)."""
+    r = lsc.solve(PRESSED_FROM_ZERO)
+    assert r.method == "exact-chain"
+    assert (2, 0.93565) in [(k, round(t, 5)) for k, t in _locks(r)]
+    ref = lsc.solve(PRESSED_FROM_ZERO, method="scipy", rtol=1e-11)
+    assert _events(r) == _events(ref)
+    assert np.max(np.abs(r.v_final - ref.v_final)) <= 1e-9 * closing_scale(r.scene)
+    check_result(r)
+    assert momentum_error(r) <= 1e-14

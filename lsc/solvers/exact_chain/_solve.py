@@ -19,6 +19,7 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
+from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model
 from . import _locks
 from ._locks import LockTransitions
@@ -34,6 +35,9 @@ START_TOL = 1e-13
 #: SimulationError that says so: a contact ringing on a near-plastic unloading line).
 MAX_SAMPLES = 2_000_000
 _EPS = float(np.finfo(float).eps)
+#: The start tolerance of an event function that fires at once whatever its value (a rebound
+#: line narrower than the start's resolution: :meth:`_Chain._event_functions`).
+NOW = -math.inf
 
 
 def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000):
@@ -196,12 +200,38 @@ class _Chain:
                                                       force, W0, tol_w, START_TOL)))
             elif which == 0:     # the piece's lower end reached going down: (D - da) + wl
                 g, tol = motion.deformation(k, (D0[k] - st["da"]) + st["wl"]), tol_d
+                if self._leaves_narrow_line(k, st, W0, force, disc, motion, tol_d, tol_w) == 0:
+                    tol = NOW
             elif which == 1:   # its upper end reached going up: hi - D
                 g, tol = motion.deformation(k, st["hi"] - D0[k], -1.0), tol_d
+                if self._leaves_narrow_line(k, st, W0, force, disc, motion, tol_d, tol_w) == 1:
+                    tol = NOW
             else:              # closing rate through zero while loading
                 g, tol = motion.closing_rate(k, W0[k]), tol_w
             out.append((i, g, tol))
         return out
+
+    def _leaves_narrow_line(self, k, st, W0, force, disc, motion, tol_d, tol_w):
+        """Which end (0 lower, 1 upper) contact ``k`` leaves its unloading line by at once,
+        where the line is narrower than the start's resolution ``tol_d`` [length] and the pair
+        is not clearly closing nor opening (``|Ḋ| <= tol_w`` [velocity]); ``None`` otherwise.
+
+        Such a line (a near-plastic rebound ``e² D_max`` wide) has both ends on their surfaces
+        and every derivative of its event functions within the rounding its stiffness gives
+        them: it cannot be followed. The pair leaves it the way its neighbours push it: over
+        its top (reloading past ``D_max``) where they press it together (the force it would
+        carry held rigid, :func:`_push`, positive, or zero and rising: a pusher that touches
+        now), else apart (it separates, as the law's instant rule does below
+        :data:`~lsc.contact.REBOUND_RESOLUTION`; the rebound's ringing is dropped)."""
+        if st["mode"] != MODE_UNLOADING or st["hi"] - st["lo"] > tol_d or abs(W0[k]) > tol_w:
+            return None
+        rates = np.array([float(s["s"]) * w for s, w in zip(disc[: self.K], W0)])
+        H = getattr(motion.shape, "H", None)    # (with locks: a locked contact's force is
+        if H is not None:                       # its cluster's, ._locks)
+            force, rates = H @ force, H @ rates
+        push, rate = _push(k, force, rates, self.m)
+        tol_f = START_TOL * float(self.model.force_scale())
+        return 1 if push > 0.0 or (push > -tol_f and rate > 0.0) else 0
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
@@ -210,6 +240,8 @@ class _Chain:
         omega = max(modes.fastest(), 1.0 / self.t_scale)
         pending = []
         for i, g, tol in funcs:
+            if tol is NOW:
+                return 0.0, i
             s = _start(g, tol, omega, limit)
             if s == 0.0 and g.c <= 0:
                 return 0.0, i   # (functions come in event order: the first wins a tie)
@@ -251,6 +283,19 @@ class _Ends(dict):
         k = self.k   # (each segment's value twice, as np.repeat(values, 2) gives them)
         value = self[name] = np.array([v for s in self.segments for v in (s.disc[k][name],) * 2])
         return value
+
+
+def _push(k: int, force, rate, m) -> tuple[float, float]:
+    """The force [force] contact ``k`` would carry, held rigid, from its neighbours' forces
+    ``force`` (K,) alone (positive: they press the pair together), and its rate [force/s]
+    from theirs, ``rate`` (K,): the pair's common acceleration is
+    ``(F_{k-1} - F_{k+1}) / (m_k + m_{k+1})``, so the link carries
+    ``(m_{k+1} F_{k-1} + m_k F_{k+1}) / (m_k + m_{k+1})``."""
+    K = len(force)
+    rear = (float(force[k - 1]), float(rate[k - 1])) if k > 0 else (0.0, 0.0)
+    front = (float(force[k + 1]), float(rate[k + 1])) if k + 1 < K else (0.0, 0.0)
+    a, b = float(m[k]), float(m[k + 1])
+    return ((b * rear[0] + a * front[0]) / (a + b), (b * rear[1] + a * front[1]) / (a + b))
 
 
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
