@@ -435,3 +435,46 @@ def test_a_pair_pressed_from_zero_force_locks():
     assert np.max(np.abs(r.v_final - ref.v_final)) <= 1e-9 * closing_scale(r.scene)
     check_result(r)
     assert momentum_error(r) <= 1e-14
+
+
+#: A 6-car chain (drawn as PRESSED_FROM_ZERO was) whose contact 4 (e = 0) is locked when
+#: contact 3 (e = 1.2e-7) turns at its max deformation onto a line 6e-17 ft wide: the pair leaves
+#: that line the way the lock rule measures its press, with contact 4 held (the front car tied
+#: to the one ahead); judged on the two cars alone, it reloaded and turned at one instant until
+#: the event limit.
+NARROW_BESIDE_A_LOCK = {
+    "units": "US",
+    "vehicles": [{"mass": 76.81117337454704, "speed": 13.464122450936726},
+                 {"mass": 290.92940460023584, "speed": 2.0},
+                 {"mass": 707.1746059549191, "speed": 2.0},
+                 {"mass": 79.43282347242814, "speed": 1.0},
+                 {"mass": 654.3028444018496, "speed": 1.0},
+                 {"mass": 79.43282347242814, "speed": 0.0}],
+    "contacts": [
+        {"loading": {"table": [[0.0, 0.0], [0.2590505286613792, 1913670.3788300848],
+                               [0.5181010573227584, 1913670.3788300848],
+                               [1000.0, 73836115594.88544]]},
+         "unloading": {"restitution": 0.03596336660879907}, "gap": 0.023155942682498636},
+        {"loading": {"table": [[0.0, 0.0], [0.00963122711607534, 9631.227116075339],
+                               [0.01926245423215068, 9631.227116075339],
+                               [1000.0, 9999817006.684793]]},
+         "unloading": {"restitution": 0.7}, "gap": 1.0},
+        {"loading": {"stiffness": 64904.65002363357}, "unloading": {"restitution": 1.0},
+         "gap": 0.10000230261160267},
+        {"loading": {"stiffness": 56402.48678410011},
+         "unloading": {"restitution": 1.192092896e-07}, "gap": 1.0},
+        {"loading": {"stiffness": 19172.86427913796}, "unloading": {"restitution": 0.0},
+         "gap": 0.011234541313351552}]}
+
+
+def test_a_narrow_line_beside_a_locked_pair_is_left_by_the_lock_rule_s_press():
+    """The chain finishes (auto), conserves momentum and balances energy, and its final
+    speeds are SciPy's (which follows contact 3's rebound: 45 events against 41, converged to
+    5e-9 from rtol 1e-10 to 1e-12) within that rebound's speed, e times the closing speed."""
+    r = lsc.solve(NARROW_BESIDE_A_LOCK)
+    assert r.method == "exact-chain" and _locks(r)
+    check_result(r)
+    assert momentum_error(r) <= 1e-14
+    ref = lsc.solve(NARROW_BESIDE_A_LOCK, method="scipy", rtol=1e-10)
+    e = NARROW_BESIDE_A_LOCK["contacts"][3]["unloading"]["restitution"]
+    assert np.max(np.abs(r.v_final - ref.v_final)) <= e * closing_scale(r.scene)

@@ -20,7 +20,7 @@ import numpy as np
 from ...errors import SimulationError
 from ..segments import Step, build_result, run_segments
 from ...laws import MODE_UNLOADING
-from ...locking import FEATURE as LOCK, lock_warnings, locking_model
+from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _locks
 from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
@@ -200,18 +200,18 @@ class _Chain:
                                                       force, W0, tol_w, START_TOL)))
             elif which == 0:     # the piece's lower end reached going down: (D - da) + wl
                 g, tol = motion.deformation(k, (D0[k] - st["da"]) + st["wl"]), tol_d
-                if self._leaves_narrow_line(k, st, W0, force, disc, motion, tol_d, tol_w) == 0:
+                if self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w) == 0:
                     tol = NOW
             elif which == 1:   # its upper end reached going up: hi - D
                 g, tol = motion.deformation(k, st["hi"] - D0[k], -1.0), tol_d
-                if self._leaves_narrow_line(k, st, W0, force, disc, motion, tol_d, tol_w) == 1:
+                if self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w) == 1:
                     tol = NOW
             else:              # closing rate through zero while loading
                 g, tol = motion.closing_rate(k, W0[k]), tol_w
             out.append((i, g, tol))
         return out
 
-    def _leaves_narrow_line(self, k, st, W0, force, disc, motion, tol_d, tol_w):
+    def _leaves_narrow_line(self, k, st, W0, disc, x0, v0, tol_d, tol_w):
         """Which end (0 lower, 1 upper) contact ``k`` leaves its unloading line by at once,
         where the line is narrower than the start's resolution ``tol_d`` [length] and the pair
         is not clearly closing nor opening (``|Ḋ| <= tol_w`` [velocity]); ``None`` otherwise.
@@ -220,18 +220,17 @@ class _Chain:
         and every derivative of its event functions within the rounding its stiffness gives
         them: it cannot be followed. The pair leaves it the way its neighbours push it: over
         its top (reloading past ``D_max``) where they press it together (the force it would
-        carry held rigid, :func:`_push`, positive, or zero and rising: a pusher that touches
-        now), else apart (it separates, as the law's instant rule does below
-        :data:`~lsc.contact.REBOUND_RESOLUTION`; the rebound's ringing is dropped)."""
+        carry held rigid, by the lock rule's own measure, :func:`lsc.locking.pressed`:
+        positive, or zero and rising, a pusher that touches now), else apart (it separates,
+        as the law's instant rule does below :data:`~lsc.contact.REBOUND_RESOLUTION`; the
+        rebound's ringing is dropped)."""
         if st["mode"] != MODE_UNLOADING or st["hi"] - st["lo"] > tol_d or abs(W0[k]) > tol_w:
             return None
-        rates = np.array([float(s["s"]) * w for s, w in zip(disc[: self.K], W0)])
-        H = getattr(motion.shape, "H", None)    # (with locks: a locked contact's force is
-        if H is not None:                       # its cluster's, ._locks)
-            force, rates = H @ force, H @ rates
-        push, rate = _push(k, force, rates, self.m)
-        tol_f = START_TOL * float(self.model.force_scale())
-        return 1 if push > 0.0 or (push > -tol_f and rate > 0.0) else 0
+        model = getattr(self.parts, "_locking", self.model)   # (with the locks held)
+        mask = [j == k or bool(_locks.locked(self.parts, disc) and j in
+                               _locks.locked(self.parts, disc)) for j in range(self.K)]
+        _, press = pressed(model, np.concatenate([x0, v0]), disc, model.params, mask)
+        return 1 if press[k] else 0
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
@@ -283,19 +282,6 @@ class _Ends(dict):
         k = self.k   # (each segment's value twice, as np.repeat(values, 2) gives them)
         value = self[name] = np.array([v for s in self.segments for v in (s.disc[k][name],) * 2])
         return value
-
-
-def _push(k: int, force, rate, m) -> tuple[float, float]:
-    """The force [force] contact ``k`` would carry, held rigid, from its neighbours' forces
-    ``force`` (K,) alone (positive: they press the pair together), and its rate [force/s]
-    from theirs, ``rate`` (K,): the pair's common acceleration is
-    ``(F_{k-1} - F_{k+1}) / (m_k + m_{k+1})``, so the link carries
-    ``(m_{k+1} F_{k-1} + m_k F_{k+1}) / (m_k + m_{k+1})``."""
-    K = len(force)
-    rear = (float(force[k - 1]), float(rate[k - 1])) if k > 0 else (0.0, 0.0)
-    front = (float(force[k + 1]), float(rate[k + 1])) if k + 1 < K else (0.0, 0.0)
-    a, b = float(m[k]), float(m[k + 1])
-    return ((b * rear[0] + a * front[0]) / (a + b), (b * rear[1] + a * front[1]) / (a + b))
 
 
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
