@@ -165,10 +165,12 @@ class _Chain:
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
+        stopped = None
         if event is not None and self.brakes:
             j, w = self.parts.events[event]
             if w == 0 and j in self.brakes.parts:   # a stop: at rest, exactly
-                end[self.N + self.brakes.vehicle(j)] = 0.0
+                stopped = self.N + self.brakes.vehicle(j)
+                end[stopped] = 0.0
         # (a contact whose closing rate is an armed event keeps closing all along: its force
         # is monotone, its extremes at the segment's ends, none inside it to search)
         # (a lock's closing-rate watch is not a law's: only the laws' contacts, k < K)
@@ -177,8 +179,11 @@ class _Chain:
         self.records.append((t0, motion, force, tau, rising))
         self.ends.append((y0, end))
 
-        def dense(tt, motion=motion, t0=t0):
-            return motion.state(np.asarray(tt, float) - t0)
+        def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
+            out = motion.state(np.asarray(tt, float) - t0)
+            if stopped is not None:   # (at rest from the stop on, as the state is)
+                out[stopped] = np.where(np.asarray(tt) >= t1, 0.0, out[stopped])
+            return out
 
         return Step(t0 + tau, end, event, dense, 1, 0)
 
