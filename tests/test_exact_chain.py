@@ -10,6 +10,8 @@ with a feature it does not solve).
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 from hypothesis import given, reject, settings
@@ -89,19 +91,11 @@ def _check_conservation(r, energy_allowance=0.0):
     assert energy_error(r) <= 1e-12 + energy_allowance, (energy_error(r), energy_allowance)
 
 
-@settings(max_examples=MODAL_CASES)
-@given(chains(tables=True, e_min=0.2, pushed_shut=False))
-def test_chains_match_the_independent_modal_solution(scene):
-    """exact-chain against the independent modal solution (tests/hard/modal_chain.py, every
-    metric from its own trajectory: tests/hard/modal_metrics.py) on random chains with
-    loading tables: the same sequence of events, their times to 1e-8 of the run, every metric
-    of lsc.result.METRICS to 1e-10 of its scale. (Not with contacts touching at no closing
-    speed: the reference moves a function that starts on its surface off it by a fixed amount,
-    which rounding in its modal sums can exceed, and closes such contacts late or spuriously;
-    nor with near-plastic contacts that a neighbour pushes shut over and over, which lock:
-    SciPy is the reference for those, below. Braked chains: test_braked_chains_match_...)"""
-    r = lsc.solve(scene, method="exact-chain")
-    events, ref = reference(scene)
+def _hold_to_reference(scene, r, events, ref, floor=None):
+    """exact-chain's Result ``r`` against the independent solution's ``events`` and metrics
+    ``ref``: the same sequence of events, their times to 1e-8 of the run, every metric to 1e-10
+    of its scale; or, on an ill-conditioned chain, to what a relative change of 1e-12 in the
+    data does (plus ``floor``: name -> a further allowance, :func:`position_floor`)."""
     t_last = events[-1][0]
     t, t_ref = same_events(r, events, t_last, [c.gap for c in r.scene.contacts])
     # (times to 1e-8: a contact closing after a long flight at a small closing rate, a
@@ -117,9 +111,26 @@ def test_chains_match_the_independent_modal_solution(scene):
         # two solutions part by 4.7e-9)
         t_cond, cond = rounding_response(scene, r, ref)
         assert dt <= 1e-8 * t_last + 100 * t_cond, (dt, t_cond)
+        floor = {} if floor is None else floor(r)
         for name, err in errors.items():
-            assert err <= 1e-10 + 100 * cond[name], \
-                (name, getattr(r, name), ref[name], err, cond[name])
+            assert err <= 1e-10 + 100 * cond[name] + floor.get(name, 0.0), \
+                (name, getattr(r, name), ref[name], err, cond[name], floor.get(name))
+
+
+@settings(max_examples=MODAL_CASES)
+@given(chains(tables=True, e_min=0.2, pushed_shut=False))
+def test_chains_match_the_independent_modal_solution(scene):
+    """exact-chain against the independent modal solution (tests/hard/modal_chain.py, every
+    metric from its own trajectory: tests/hard/modal_metrics.py) on random chains with
+    loading tables: the same sequence of events, their times to 1e-8 of the run, every metric
+    of lsc.result.METRICS to 1e-10 of its scale. (Not with contacts touching at no closing
+    speed: the reference moves a function that starts on its surface off it by a fixed amount,
+    which rounding in its modal sums can exceed, and closes such contacts late or spuriously;
+    nor with near-plastic contacts that a neighbour pushes shut over and over, which lock:
+    SciPy is the reference for those, below. Braked chains: test_braked_chains_match_...)"""
+    r = lsc.solve(scene, method="exact-chain")
+    events, ref = reference(scene)
+    _hold_to_reference(scene, r, events, ref)
     if energy_error(r) > 1e-12:
         # (a fast chain closing slowly: speeds of 10.6 ft/s closing at 0.19 ft/s, the energy
         # balance 5e-12 off, the independent solution's 3e-11, and a relative change of 1e-14 in
@@ -260,7 +271,9 @@ def test_braked_chains_match_the_independent_modal_solution(scene):
     unbraked test above); and the tight SciPy solve to 1e-8 of exact-chain, or within SciPy's
     own spread where it has not converged. (A chain whose last event comes after the crash
     horizon, lsc.model.HybridModel.crash_horizon, where lsc ends a crash, is not compared: a
-    car crawling at 7e-5 ft/s towards a stuck one 2 ft ahead, 35000 s on.)"""
+    car crawling at 7e-5 ft/s towards a stuck one 2 ft ahead, 35000 s on; nor one whose
+    events rounding decides, below; nor one with a contact pushed on at a break-away:
+    pushed_at_break_away.)"""
     events, ref = reference(scene)
     if events[-1][0] > HybridModel(lsc.Scene.load(scene)).crash_horizon:
         reject()
@@ -268,19 +281,21 @@ def test_braked_chains_match_the_independent_modal_solution(scene):
     assert r.method == "exact-chain"
     if pushed_at_break_away(r):
         reject()
-    t_last = events[-1][0]
-    t, t_ref = same_events(r, events, t_last, [c.gap for c in r.scene.contacts])
-    dt = np.max(np.abs(t - t_ref))
-    errors = metric_errors(r, r, ref, ref["closing_speed"])
-    if dt > 1e-8 * t_last or max(errors.values()) > 1e-10:
+    try:
         # (an elastic chain rattling 160 events for 67 s: the two exact solutions' final
         # speeds part by 3.6e-10 of the closing speed, each within what 1e-12 does to it)
-        t_cond, cond = rounding_response(scene, r, ref)
-        assert dt <= 1e-8 * t_last + 100 * t_cond, (dt, t_cond)
-        floor = position_floor(r)
-        for name, err in errors.items():
-            assert err <= 1e-10 + 100 * cond[name] + floor.get(name, 0.0), \
-                (name, getattr(r, name), ref[name], err, cond[name], floor.get(name))
+        _hold_to_reference(scene, r, events, ref, position_floor)
+    except AssertionError:
+        # a chaotic chain (light cars rattling 360 events against a braked one that sticks and
+        # slips): where a relative change of 1e-14 in the rear car's speed changes the
+        # reference's own events, or exact-chain's, the sequence is rounding's, not the physics'
+        moved = copy.deepcopy(scene)
+        moved["vehicles"][0]["speed"] *= 1 + 1e-14
+        if [e[1:] for e in reference(moved)[0]] != [e[1:] for e in events] or \
+                [(e.index, e.kind) for e in lsc.solve(moved).events] != \
+                [(e.index, e.kind) for e in r.events]:
+            reject()
+        raise
     try:
         s = lsc.solve(scene, method="scipy", integrator="DOP853", rtol=1e-12, max_events=300,
                       max_steps=3000)

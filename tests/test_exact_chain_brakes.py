@@ -145,10 +145,17 @@ def test_braked_chains_match_the_tightest_scipy_solve(scene):
     of events (stops and break-aways included) and every metric to 1e-8 of its scale, or within
     SciPy's own spread (its 1e-12 and 2.5e-14 solves' difference) where it has not converged;
     where every contact ends open, the energy balance with the friction work to 1e-12. (A
-    chain SciPy cannot finish, a clear SimulationError, is not compared; nor one whose event
-    sequence a relative change of 1e-14 in the rear car's speed changes: rounding's; nor one
-    with a contact pushed on at a break-away, test_exact_chain.pushed_at_break_away.)"""
-    r = lsc.solve(scene)
+    chain either cannot finish in 300 events, a clear SimulationError, is not compared; nor
+    one whose event sequence a relative change of 1e-14 in the rear car's speed changes:
+    rounding's; nor one with a contact pushed on at a break-away, see
+    test_exact_chain.pushed_at_break_away.)"""
+    try:
+        r = lsc.solve(scene, max_events=300)
+    except lsc.SimulationError:
+        # (cars rattling for ever between two stuck ones, each bounce elastic along an
+        # unloading line below its max, the stuck cars' static limits never reached: the
+        # event limit, a clear error)
+        reject()
     assert r.method == "exact-chain"
     if pushed_at_break_away(r):
         reject()   # (SciPy records that contact a moment late: see pushed_at_break_away)

@@ -7,9 +7,10 @@ move, so its degree of freedom leaves the modal problem (:class:`~._modes.Shape`
 a contact of non-zero slope to it grounds its neighbours' group, which then has no rigid mode).
 
 The events are the model's, each a :class:`~._modes.Series` found by the same search that
-misses no root: the stop, ``dir v_i(τ)`` through zero while sliding (the vehicle's velocity in
-the modes, a sinusoid sum plus the rigid modes' line), and the break-aways, ``μ_s m g ∓ net_i(τ)``
-while stuck (the net contact force on the vehicle is linear in the deformations). The
+misses no root: the stop, ``dir v_i(τ)`` through zero while sliding (the vehicle's velocity
+in the modes, a sinusoid sum plus the rigid modes' line), and the break-aways,
+``μ_s m g ∓ net_i(τ)`` while stuck (the net contact force on the vehicle is linear in the
+deformations). The
 transitions are the model's (:meth:`~lsc.effects.BrakeEffect.on_event`); a stop sets the
 vehicle's speed to zero exactly, and a held vehicle stays exactly where it is.
 """
