@@ -50,6 +50,7 @@ class Brakes:
             self.parts[j] = (b.i, float(b.params["mu"]) * g,
                              float(b.params["mus"]) * float(m[b.i]) * g)
         self.m = m
+        self.force_scale = float(model.force_scale())   # [force] (once per chain)
 
     def state(self, disc):
         """``(held, push)``: the stuck vehicles (a sorted tuple) and the friction force on each
@@ -81,7 +82,7 @@ class Brakes:
         net0 = float(inc @ force)
         row = (inc * slopes) @ motion.P   # net_i(τ) - net_i(0) = row q(τ)
         sign = -1.0 if which == 1 else 1.0
-        tol = start_tol * float(chain.model.force_scale()) + \
+        tol = start_tol * self.force_scale + \
             16 * _EPS * (limit + float(np.abs(inc) @ np.abs(force)))
         return Series(limit + sign * net0, sign * row * motion.a, sign * row * motion.b,
                       motion.modes), tol
