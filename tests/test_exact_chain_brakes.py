@@ -83,7 +83,8 @@ def test_sliding_cars_stop_v_over_mu_g_after_they_separate():
     both braked; after the separation each slides on at its speed there, decelerating at μ g:
     each stops |v|/(μ g) later, |v|²/(2 μ g) further on, at rest exactly (the rear car, braked
     harder, never reaches the front one again; the third car is 40 ft ahead). The energy lost
-    is the bumpers' net absorbed energy plus the friction work μ m g times each path."""
+    is the bumpers' net absorbed energy plus the friction work μ m g times each path; each
+    car's peak acceleration carries its friction's constant deceleration."""
     mu = (0.9, 0.3)
     scene = _scene([{"mass": 100.0, "speed": 12.0, "brake": {"mu": mu[0]}},
                     {"mass": 70.0, "speed": 0.0, "brake": {"mu": mu[1], "mu_static": 0.4}},
@@ -111,6 +112,11 @@ def test_sliding_cars_stop_v_over_mu_g_after_they_separate():
         assert r.v[at_stop, i] == 0.0 and np.all(r.v[at_stop:, i] == 0.0)
     assert r.v_final[1] > r.v_final[0] > 0
     assert _friction_balance(r) <= 1e-12
+    # the peak accelerations, both cars sliding forward at the peak force: the contact force's
+    # and the friction's together (-F/m - μ g behind, F/m - μ g in front)
+    F, m = r.peak_force[0], r.scene.masses
+    assert r.peak_acceleration[0] == pytest.approx(-F / m[0] - mu[0] * g, rel=1e-12)
+    assert r.peak_acceleration[1] == pytest.approx(F / m[1] - mu[1] * g, rel=1e-12)
 
 
 def test_two_stuck_cars_pressed_together_every_metric_against_the_modal_solution():
