@@ -39,7 +39,8 @@ _EPS = float(np.finfo(float).eps)
 
 def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000):
     """Solve a chain ``model`` (IF-D contacts with straight or tabulated loading and a straight
-    unloading line) exactly, segment by segment, as a :class:`~lsc.result.Result`.
+    unloading line; braked vehicles that slide and stick, :mod:`._brakes`) exactly, segment by
+    segment, as a :class:`~lsc.result.Result`.
 
     ``t_end`` [s]: simulate until then (must not cut the crash); ``n_samples``: points in the
     sampled series (every event is a sample); ``max_events``: limit on discrete events.
