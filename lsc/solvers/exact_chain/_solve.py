@@ -161,9 +161,8 @@ class _Chain:
                 f"exact-chain: {MAX_SAMPLES} samples in one segment by t = {t0 + tau:.6g} s and "
                 f"no event: a contact rings at {motion.modes.fastest():.3g} rad/s for longer "
                 "than one segment can follow (a near-plastic contact, its unloading line up to "
-                "1/e² times stiffer than its loading, held shut by a neighbour: it chatters; "
-                "or a car ringing for ever on a contact that stuck, braked neighbours hold "
-                "shut); check the scene for contacts that chatter")
+                "1/e² times stiffer than its loading, held shut by a neighbour: it chatters); "
+                "check the scene for contacts that chatter")
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
