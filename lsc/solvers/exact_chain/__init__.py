@@ -6,9 +6,14 @@ linear, ``M x'' = -K x + f``, and is solved in closed form in the modes of ``M^{
 on a falling table piece) plus a quadratic, whose first downward zero is found with a guarantee
 that none is missed (:mod:`._roots`). The transitions are the model's own.
 
+Braked vehicles slide (a constant friction force in the segment's constant force) or stick
+(held: their degree of freedom leaves the modal problem); their stops and break-aways are event
+functions like the others (:mod:`._brakes`).
+
 A near-plastic pair pressed shut by its neighbours locks by :mod:`lsc.locking`'s rules (as in
 SciPy): a segment with locked contacts is the closed-form motion of the reduced chain of
-clusters, and the locks' releases are event functions like the others (:mod:`._locks`).
+clusters, and the locks' releases are event functions like the others (:mod:`._locks`). A
+braked chain never locks (:func:`lsc.locking.can_lock`, for every backend alike).
 
 Many chains of one shape (straight loading and unloading lines) are solved at once by
 :func:`solve_batch` (:mod:`._batch`: one NumPy evaluation per event over every member).
@@ -30,7 +35,7 @@ BACKEND = Backend(
     name="exact-chain", module="lsc.solvers.exact_chain",
     options=("t_end", "n_samples", "max_events"), exact=True, cost=2.0, vehicles=(3, None),
     solves=frozenset({"law:ifd", "loading:linear", "loading:table", "unloading:restitution",
-                      "unloading:stiffness", "gap:open", "contact:lock"}),
+                      "unloading:stiffness", "gap:open", "contact:lock", "effect:brake"}),
     batch=frozenset({"law:ifd", "loading:linear", "unloading:restitution",
                      "unloading:stiffness", "gap:open"}),
     batch_options=("max_events",),

@@ -230,23 +230,23 @@ class Shape:
 
     _cache: dict = {}
 
-    def __new__(cls, m, slope, incidence):
+    def __new__(cls, m, slope, incidence, held: tuple = ()):
         m, slope = np.asarray(m, float), np.asarray(slope, float)
         incidence = np.asarray(incidence, float)
-        key = (m.tobytes(), slope.tobytes(), incidence.shape, incidence.tobytes())
+        key = (m.tobytes(), slope.tobytes(), incidence.shape, incidence.tobytes(), held)
         shape = cls._cache.get(key)
         if shape is None:
             shape = super().__new__(cls)
-            shape._build(m, slope, incidence)
+            shape._build(m, slope, incidence, held)
             if len(cls._cache) >= SHAPES or len(cls._cache) * m.size ** 2 > SHAPE_ENTRIES:
                 cls._cache.clear()
             cls._cache[key] = shape
         return shape
 
-    def _build(self, m, slope, incidence):
+    def _build(self, m, slope, incidence, held=()):
         C = -incidence.T   # (K, N): D = C x - gap
         root = np.sqrt(m)
-        kappa, Q = _modes(C, slope, root)
+        kappa, Q = _modes(C, slope, root, held)
         self.modes = Modes(kappa)
         self.T = Q / root[:, None]
         self.P = C @ self.T
@@ -259,6 +259,9 @@ class Shape:
         # force, or none)
         inv_m = 1.0 / np.asarray(m, float)[:, None]
         force_rows = slope[:, None] * self.P
+        if held:   # (a held vehicle's acceleration is 0: its rows are)
+            incidence = incidence.copy()
+            incidence[list(held)] = 0.0
         self.peak_of_force = np.concatenate([np.eye(slope.size), incidence * inv_m])
         self.peak_rows = np.concatenate([force_rows, (incidence @ force_rows) * inv_m])
         active = [s != 0 for s in slope.tolist()]
@@ -307,10 +310,16 @@ class Motion:
     velocity]; ``slope`` (K,) each contact's active slope ``s_k`` [force/length] (0 when open)
     and ``force`` (K,) its force at the start [force]; ``incidence`` (N, K) the model's
     (contact ``k`` pushes vehicle ``k`` back and ``k+1`` forward); ``shape``: their
-    :class:`Shape`, if already built (``slope`` is then not read).
+    :class:`Shape`, if already built (``slope`` is then not read); ``push`` (N,) constant
+    forces on the vehicles beside the contacts' (a sliding brake's friction) [force], or
+    ``None``: none (their accelerations, ``push / m``, are :attr:`offset`'s last N entries,
+    after K zeros for the forces).
     """
 
-    def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None):
+    offset = None
+
+    def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None,
+                 push=None):
         self.m, self.x0, self.v0 = m, x0, v0
         shape = Shape(m, slope, incidence) if shape is None else shape
         self.shape = shape
@@ -319,6 +328,9 @@ class Motion:
         self.T, self.P = shape.T, shape.P
         self.a = shape.from_velocity @ v0                # q'(0)
         self.b = shape.from_force @ force                # q''(0)
+        if push is not None:
+            self.b = self.b + shape.T.T @ push
+            self.offset = np.concatenate([np.zeros(len(force)), push / m])
         self.N = m.size
         self._pa = self._rate = None
 
@@ -352,6 +364,12 @@ class Motion:
             self._rate = self.shape.minus_kappa_P * self.a
         return Series(float(w0), self._rows()[1][k], self._rate[k], self.modes)
 
+    def velocity(self, i: int, sign: float = 1.0) -> Series:
+        """``sign v_i(τ)`` (``sign`` ±1) as a :class:`Series` (as :meth:`closing_rate`)."""
+        T = sign * self.T[i]
+        return Series(sign * float(self.v0[i]), T * self.b, -self.kappa * T * self.a,
+                      self.modes)
+
     def _rows(self):
         """``P a, P b`` (K, n): every contact's deformation in the modes (each row's products
         as a row alone would give them)."""
@@ -360,14 +378,19 @@ class Motion:
         return self._pa
 
 
-def _modes(C, slope, root):
-    """Eigenvalues (N,) [1/s²] and orthonormal eigenvectors (N, N) of
-    ``M^{-1/2} Cᵀ diag(slope) C M^{-1/2}``: the rigid modes exactly (one translation per group
-    of vehicles joined by contacts of non-zero slope, ``κ = 0``), the others from ``eigh`` on
-    their complement."""
+def _modes(C, slope, root, held=()):
+    """Eigenvalues (n,) [1/s²] and orthonormal eigenvectors (N, n) of
+    ``M^{-1/2} Cᵀ diag(slope) C M^{-1/2}`` on the vehicles not ``held`` (``n`` of them; a held
+    vehicle's row is 0: it does not move): the rigid modes exactly (one translation per group
+    of free vehicles joined by contacts of non-zero slope, ``κ = 0``; none for a group that
+    such a contact joins to a held vehicle: it is grounded), the others from ``eigh`` on their
+    complement."""
     N = root.size
+    slopes = slope.tolist()
+    if held:
+        return _held_modes(C, slopes, root, held)
     group = [0]
-    for s in slope.tolist():
+    for s in slopes:
         group.append(group[-1] if s != 0 else group[-1] + 1)
     n_rigid = group[-1] + 1
     roots = root.tolist()
@@ -381,9 +404,50 @@ def _modes(C, slope, root):
         return np.zeros(N), R
     scaled = C / root[None, :]
     A = scaled.T @ (slope[:, None] * scaled)
+    return _elastic(A, R)
+
+
+def _elastic(A, R):
+    """``(κ, Q)``: the rigid modes ``R`` (n, r) with κ = 0, then the other eigenvectors of
+    ``A`` (n, n), orthogonal to them."""
     lam, V = np.linalg.eigh(A)
-    elastic = np.argsort(np.abs(lam))[n_rigid:]
+    elastic = np.argsort(np.abs(lam))[R.shape[1]:]
     # (orthogonal to the rigid modes to rounding, and kept so: each group's momentum is exact)
     E = V[:, elastic]
     E -= R @ (R.T @ E)
-    return np.concatenate([np.zeros(n_rigid), lam[elastic]]), np.concatenate([R, E], axis=1)
+    return np.concatenate([np.zeros(R.shape[1]), lam[elastic]]), np.concatenate([R, E], axis=1)
+
+
+def _held_modes(C, slopes, root, held):
+    """:func:`_modes` with the vehicles ``held`` (their rows 0, no mode of theirs)."""
+    N = root.size
+    free = [i for i in range(N) if i not in held]
+    # the free vehicles' groups (a contact of non-zero slope between two free ones joins
+    # them) and whether one is grounded (such a contact to a held vehicle)
+    group, grounded = {}, []
+    for i in free:
+        if i > 0 and i - 1 in group and slopes[i - 1] != 0:
+            group[i] = group[i - 1]
+        else:
+            group[i] = len(grounded)
+            grounded.append(False)
+        for k, j in ((i - 1, i - 1), (i, i + 1)):
+            if 0 <= k < len(slopes) and slopes[k] != 0 and j in held:
+                grounded[group[i]] = True
+    rigid = [g for g, ground in enumerate(grounded) if not ground]
+    roots = root.tolist()
+    R = np.zeros((len(free), len(rigid)))
+    for c, g in enumerate(rigid):
+        rows = [r for r, i in enumerate(free) if group[i] == g]
+        norm = math.sqrt(sum(roots[free[r]] ** 2 for r in rows))
+        R[rows, c] = [roots[free[r]] / norm for r in rows]
+    if not free:
+        kappa, Qf = np.zeros(0), R
+    elif len(rigid) == len(free):
+        kappa, Qf = np.zeros(len(free)), R
+    else:
+        scaled = C[:, free] / root[None, free]
+        kappa, Qf = _elastic(scaled.T @ (np.asarray(slopes)[:, None] * scaled), R)
+    Q = np.zeros((N, len(free)))
+    Q[free] = Qf
+    return kappa, Q

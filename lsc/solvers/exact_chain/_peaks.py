@@ -116,7 +116,10 @@ def _peaks(records, K: int, passes):
     """:func:`segment_peaks` of ``records``, their grids searched in ``passes`` (each a list
     of windows ``(segment, first interval, number of intervals, the segment's intervals)``)."""
     shapes = [motion.shape for motion, _, _, _ in records]
-    c0 = np.array([s.peak_of_force @ force for s, (_, force, _, _) in zip(shapes, records)])
+    # (plus a sliding brake's constant deceleration: Motion.offset)
+    c0 = np.array([s.peak_of_force @ force if m.offset is None else
+                   s.peak_of_force @ force + m.offset
+                   for s, (m, force, _, _) in zip(shapes, records)])
     rows = np.array([s.peak_rows for s in shapes])
     A = rows * np.array([m.a for m, _, _, _ in records])[:, None, :]     # (S, Q, n)
     G = rows * np.array([m.b for m, _, _, _ in records])[:, None, :]

@@ -22,6 +22,7 @@ from ..segments import Step, build_result, run_segments
 from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _locks
+from ._brakes import Brakes, BrakedTransitions
 from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
@@ -42,7 +43,8 @@ NOW = -math.inf
 
 def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000):
     """Solve a chain ``model`` (IF-D contacts with straight or tabulated loading and a straight
-    unloading line) exactly, segment by segment, as a :class:`~lsc.result.Result`.
+    unloading line; braked vehicles that slide and stick, :mod:`._brakes`) exactly, segment by
+    segment, as a :class:`~lsc.result.Result`.
 
     ``t_end`` [s]: simulate until then (must not cut the crash); ``n_samples``: points in the
     sampled series (every event is a sample); ``max_events``: limit on discrete events.
@@ -77,7 +79,7 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    fast = _ScalarTransitions(model)
+    fast = (BrakedTransitions if model.brakes else _ScalarTransitions)(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
     # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions;
@@ -106,6 +108,7 @@ class _Chain:
         self.shapes = {}  # the modes of each set of active slopes (:class:`~._modes.Shape`)
         self.ends = []    # the state at the start and at the end of each segment
         self.parts = model   # whose events the segments search (a LockTransitions: with locks)
+        self.brakes = Brakes(model) if model.brakes else None   # (._brakes)
 
     def rows(self, segments) -> dict | None:
         """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
@@ -115,8 +118,8 @@ class _Chain:
             return None
         N = self.N
         Y = np.array([y for pair in self.ends for y in pair]).T      # (2N, 2S)
-        # each contact's discrete state on both ends of every segment, as arrays
-        disc = [_Ends(segments, k) for k in range(self.K)]
+        # each contact's (and brake's) discrete state on both ends of every segment, as arrays
+        disc = [_Ends(segments, k) for k in range(len(segments[0].disc))]
         p = dict(self.model.params, gap=self.gap[:, None])
         F, _, acc = self.model.accelerations(Y, disc, p)
         D, _ = self.model.deformation(Y, p)
@@ -130,6 +133,10 @@ class _Chain:
         lock = _locks.locked(self.parts, disc)
         if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
             y0 = _locks.project(self, y0, lock)
+        held, push = self.brakes.state(disc) if self.brakes else ((), None)
+        if held:   # (a stuck vehicle is held, at rest: ._brakes)
+            y0 = y0.copy()
+            y0[[self.N + i for i in held]] = 0.0
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
         # (the deformations and closing rates as Python floats: the same arithmetic as on
         # NumPy's 0-d values, several times cheaper)
@@ -141,11 +148,12 @@ class _Chain:
         if lock:
             motion = _locks.motion(self, x0, v0, np.array(key), force, lock)
         else:
-            shape = self.shapes.get(key)
+            which = (key, held) if held else key
+            shape = self.shapes.get(which)
             if shape is None:
-                shape = self.shapes[key] = Shape(self.m, np.array(key), self.incidence)
-            motion = Motion(self.m, x0, v0, None, force, self.incidence, shape)
-        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force)
+                shape = self.shapes[which] = Shape(self.m, np.array(key), self.incidence, held)
+            motion = Motion(self.m, x0, v0, None, force, self.incidence, shape, push)
+        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force, key)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if lock and event is not None:   # (a law event at the same instant goes first)
             event = _locks.first_of_ties(self, funcs, tau, event)
@@ -162,6 +170,12 @@ class _Chain:
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
+        stopped = None
+        if event is not None and self.brakes:
+            j, w = self.parts.events[event]
+            if w == 0 and j in self.brakes.parts:   # a stop: at rest, exactly
+                stopped = self.N + self.brakes.vehicle(j)
+                end[stopped] = 0.0
         # (a contact whose closing rate is an armed event keeps closing all along: its force
         # is monotone, its extremes at the segment's ends, none inside it to search)
         # (a lock's closing-rate watch is not a law's: only the laws' contacts, k < K)
@@ -170,8 +184,11 @@ class _Chain:
         self.records.append((t0, motion, force, tau, rising))
         self.ends.append((y0, end))
 
-        def dense(tt, motion=motion, t0=t0):
-            return motion.state(np.asarray(tt, float) - t0)
+        def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
+            out = motion.state(np.asarray(tt, float) - t0)
+            if stopped is not None:   # (at rest from the stop on, as the state is)
+                out[stopped] = np.where(np.asarray(tt) >= t1, 0.0, out[stopped])
+            return out
 
         return Step(t0 + tau, end, event, dense, 1, 0)
 
@@ -184,7 +201,7 @@ class _Chain:
         return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
 
     # ------------------------------------------------------------------ events
-    def _event_functions(self, motion, disc, D0, W0, x0, v0, force):
+    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=()):
         """``[(event index, Series, tolerance at the start)]`` for every armed event."""
         tol_d = START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
@@ -195,10 +212,16 @@ class _Chain:
         for i in self.parts.active_events(disc):
             k, which = self.parts.events[i]
             st = disc[k]
+            if self.brakes and k in self.brakes.parts:   # a brake's: stop, break-away
+                out.append((i, *self.brakes.event_function(self, motion, disc, k, which,
+                                                           np.array(slopes), force, tol_w,
+                                                           START_TOL)))
+                continue
             if k >= self.K:    # a lock's (._locks): its force's releases, a watched turn
                 out.append((i, *_locks.event_function(self, motion, disc, k - self.K, which,
                                                       force, W0, tol_w, START_TOL)))
-            elif which == 0:     # the piece's lower end reached going down: (D - da) + wl
+                continue
+            if which == 0:     # the piece's lower end reached going down: (D - da) + wl
                 g, tol = motion.deformation(k, (D0[k] - st["da"]) + st["wl"]), tol_d
                 if self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w) == 0:
                     tol = NOW
