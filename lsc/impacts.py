@@ -238,15 +238,19 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
         crush = float(rec["dmax"]) if alone else max(
             float(np.max(rows["deformation"][span.start:span.stop, k])),
             _crush_between(spans, t0, t1, k))
-        impacts.append(Impact(
+        impacts.append(dict(
             contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
             closing_speed=closing, separation_speed=separating, v_start=vs, v_end=ve,
             delta_v=(ve[0] - vs[0], ve[1] - vs[1]), peak_acceleration=peak_a,
             peak_acceleration_g=tuple(x / g for x in peak_a), peak_force=force_k,
             max_deformation=crush,
-            restitution=float(restitution(np.array(vs), np.array(ve), v_max)),
             restitution_energy=e_energy, struck=closing > PUSHED * v_max))
-    return tuple(impacts)
+    if not impacts:
+        return ()
+    # (every impact's restitution in one NumPy call, where one per impact cost more)
+    e = restitution(np.array([m["v_start"] for m in impacts]),
+                    np.array([m["v_end"] for m in impacts]), v_max).tolist()
+    return tuple(Impact(**m, restitution=x) for m, x in zip(impacts, e))
 
 
 def _root_ratio(er: float, ec: float) -> float:
