@@ -1,62 +1,38 @@
 """Scenes loaded from dicts, kept by content: loading the same dict again (a loop of
-``lsc.solve(scene_dict)``) returns the Scene already validated, and with it the model built on
-it (:func:`lsc.api.model_of`), instead of parsing, validating and building them again.
+``lsc.solve(scene_dict)``) returns the Scene already validated instead of parsing and
+validating it again.
 
-The key is the dict's whole content, every value with its type (``1``, ``1.0`` and ``True`` are
-different inputs: one of them may be refused), and the folder relative paths would be read
-from. A scene that names a file (a ``csv`` table) is not kept: the file may change between two
-loads. A scene that fails to load is not kept either (its error is raised again every time).
+The key is the dict's pickle (every value with its type: ``1``, ``1.0`` and ``True`` are
+different inputs, one of them may be refused; equal pickles unpickle to equal contents) and the
+folder relative paths would be read from. A scene that may name a file (the text ``csv``
+anywhere in it: a table read from a CSV file) is not kept, as the file may change between two
+loads; nor is one that fails to load (its error is raised again every time), nor one that
+cannot be pickled.
 """
 
 from __future__ import annotations
 
+import pickle
 import threading
 from collections import OrderedDict
-from collections.abc import Mapping
-
-import numpy as np
 
 __all__ = ["content_key", "cached", "keep", "clear", "SIZE"]
 
 #: Most scenes kept (the least recently loaded one goes first).
 SIZE = 64
-_MAX_DEPTH = 64
-_SCALARS = (str, int, float, bool, type(None))
 _kept: OrderedDict = OrderedDict()
 _lock = threading.Lock()
 
 
-class _Uncachable(Exception):
-    """The input holds something a content key cannot stand for (a file, an unknown object)."""
-
-
 def content_key(obj, base_dir) -> tuple | None:
-    """A hashable key equal for two scene dicts exactly when their contents, value types and
-    ``base_dir`` are; ``None`` where the scene cannot be kept (it names a file, or holds a value
-    of another kind, which the loader refuses or converts)."""
+    """A hashable key equal for two scene dicts only when their contents, value types and
+    ``base_dir`` are; ``None`` where the scene cannot be kept (it may name a file, or cannot
+    be pickled)."""
     try:
-        return (str(base_dir), _key(obj, 0))
-    except _Uncachable:
+        content = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:   # (anything a value's pickling raises: the loader then judges it)
         return None
-
-
-def _key(obj, depth: int):
-    if depth > _MAX_DEPTH:
-        raise _Uncachable
-    kind = type(obj)
-    if kind is float:   # (repr: -0.0 is not 0.0, and every float keeps all its digits)
-        return (float, repr(obj))
-    if kind in _SCALARS:
-        return (kind, obj)
-    if isinstance(obj, Mapping):
-        if "csv" in obj:
-            raise _Uncachable
-        return (dict, tuple((_key(k, depth + 1), _key(v, depth + 1)) for k, v in obj.items()))
-    if kind is list or kind is tuple:
-        return (list, tuple(_key(v, depth + 1) for v in obj))
-    if kind is np.ndarray and obj.dtype.kind in "iuf":
-        return (np.ndarray, obj.dtype.str, obj.shape, obj.tobytes())
-    raise _Uncachable
+    return None if b"csv" in content else (str(base_dir), content)
 
 
 def cached(key):
@@ -81,6 +57,6 @@ def keep(key, scene) -> None:
 
 
 def clear() -> None:
-    """Forget every kept scene (and the models built on them)."""
+    """Forget every kept scene."""
     with _lock:
         _kept.clear()
