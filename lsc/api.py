@@ -35,7 +35,10 @@ def solve(scene, method: str | None = None, **options):
     Result
         Series, events and metrics in the scene's unit system.
     """
-    model = model_of(Scene.load(scene))
+    # (a dict's Scene is kept by content, lsc.scene._cache; its model is built anew, cheap on
+    # a Scene already loaded, so that nothing a solve computed lazily is shared between solves
+    # of dicts)
+    model = model_of(scene) if isinstance(scene, Scene) else HybridModel(Scene.load(scene))
     backend, opts = resolve(model.scene, method, options, model=model)
     return solvers.run(model, backend, opts)
 

@@ -92,12 +92,14 @@ def _in_order(found: list, resolution: float) -> list:
     """The episodes ``found`` by first touch, each run of touches within the tie window of its
     first one by contact index."""
     found = sorted(found, key=lambda e: (e[1], e[0]))
+    # (every episode's tie window in one NumPy call)
+    window = tie_window(np.array([e[1] for e in found]), np.array([e[2] - e[1] for e in found]),
+                        resolution).tolist() if len(found) > 1 else []
     out, i = [], 0
     while i < len(found):
         t0 = found[i][1]
         j = i + 1
-        while j < len(found) and found[j][1] - t0 <= max(
-                tie_window(e[1], e[2] - e[1], resolution) for e in (found[i], found[j])):
+        while j < len(found) and found[j][1] - t0 <= max(window[i], window[j]):
             j += 1
         out += sorted(found[i:j], key=lambda e: e[0])
         i = j
@@ -118,7 +120,7 @@ def _pushed_from_the_start(found: list, K: int, t: list, v: list, speeds: list, 
     such a touch only once the deformation passes its rounding, an integrator microseconds
     late, so that the impacts' order, ``Result.first_impact`` and ``duration`` agree on every
     backend)."""
-    ct, end, pushed, first = np.full(K, np.nan), np.full(K, np.nan), np.zeros(K, bool), {}
+    ct, end, pushed, first = [math.nan] * K, [math.nan] * K, [False] * K, {}
     for i, (k, t0, t1, _) in enumerate(found):
         if k in first:
             continue
@@ -126,7 +128,9 @@ def _pushed_from_the_start(found: list, K: int, t: list, v: list, speeds: list, 
         row = _touch_speeds(t, v, speeds, t0, t1)
         ct[k], end[k] = t0, t1
         pushed[k] = not row[k] - row[k + 1] > PUSHED * v_max
-    eff = simultaneous_touch(ct, end, pushed)
+    if not any(pushed):
+        return found   # (none pushed shut: simultaneous_touch keeps every touch as it is)
+    eff = simultaneous_touch(np.array(ct), np.array(end), np.array(pushed)).tolist()
     moved = [k for k, i in first.items() if eff[k] < found[i][1]]
     if not moved:
         return found
@@ -238,15 +242,19 @@ def find_impacts(rows, events, v_post, records, *, speeds, g, v_max,
         crush = float(rec["dmax"]) if alone else max(
             float(np.max(rows["deformation"][span.start:span.stop, k])),
             _crush_between(spans, t0, t1, k))
-        impacts.append(Impact(
+        impacts.append(dict(
             contact=k, vehicles=pair, t_start=t0, t_end=t1, separated=separated,
             closing_speed=closing, separation_speed=separating, v_start=vs, v_end=ve,
             delta_v=(ve[0] - vs[0], ve[1] - vs[1]), peak_acceleration=peak_a,
             peak_acceleration_g=tuple(x / g for x in peak_a), peak_force=force_k,
             max_deformation=crush,
-            restitution=float(restitution(np.array(vs), np.array(ve), v_max)),
             restitution_energy=e_energy, struck=closing > PUSHED * v_max))
-    return tuple(impacts)
+    if not impacts:
+        return ()
+    # (every impact's restitution in one NumPy call, where one per impact cost more)
+    e = restitution(np.array([m["v_start"] for m in impacts]),
+                    np.array([m["v_end"] for m in impacts]), v_max).tolist()
+    return tuple(Impact(**m, restitution=x) for m, x in zip(impacts, e))
 
 
 def _root_ratio(er: float, ec: float) -> float:

@@ -66,7 +66,7 @@ def tie_window(t, span, resolution=0.0, xp=np):
 
 def pairs(v, xp=np):
     """(..., K, 2): the (rear, front) values of each contact's vehicles from ``v`` (..., N)."""
-    return xp.stack([v[..., :-1], v[..., 1:]], axis=-1)
+    return xp.concatenate([v[..., :-1, None], v[..., 1:, None]], axis=-1)   # (stack's values)
 
 
 def first_impacts_init(closed0, v0, F0, a0, xp=np) -> dict:
@@ -160,6 +160,8 @@ def simultaneous_touch(ct, end, pushed, xp=np):
     touched = ~xp.isnan(ct)
     c0 = xp.where(touched, ct, 0.0)
     eff = xp.where(touched, ct, xp.inf)
+    if xp is np and not pushed.any():
+        return eff   # (none pushed shut: each its own touch, told at once on NumPy's values)
     for _ in range(ct.shape[-1] - 1):   # (a push passed down a line of touching vehicles)
         by_rear = pushed[..., 1:] & touched[..., :-1] & (c0[..., :-1] <= c0[..., 1:]) & \
             (c0[..., 1:] <= end[..., :-1])
@@ -181,30 +183,32 @@ def _ties(first, touched, c0, end, v_touch, v_end, resolution, xp):
     eff = simultaneous_touch(first["contact_time"], end, pushed, xp)
     w = xp.where(touched, eff, 0.0)
     # each vehicle from its rear contact (side 1) and its front contact (side 0)
-    no, zero = xp.zeros_like(touched[..., :1]), xp.zeros_like(c0[..., :1])
-    hit_r, hit_f = _sides(touched, no, xp)
-    c_r, c_f = _sides(c0, zero, xp)
-    tie_r, tie_f = _sides(tie, zero, xp)
-    w_r, w_f = _sides(w, zero, xp)
+    hit_r, hit_f = _sides(touched, xp.zeros_like(touched[..., :1]), xp)
+    # (the times and the speeds and peaks at either end of the contacts, all padded at once)
+    acc = first["peak_acc"]
+    x = xp.asarray([c0, tie, w, v_end[..., 1], v_touch[..., 1], acc[..., 1], v_end[..., 0],
+                    v_touch[..., 0], acc[..., 0]])   # (stacked: a quarter of xp.stack's cost)
+    by_rear, by_front = _sides(x, xp.zeros_like(x[..., :1]), xp)
+    (c_r, tie_r, w_r), (c_f, tie_f, w_f) = by_rear[:3], by_front[:3]
     tied = hit_r & hit_f & (xp.abs(w_r - w_f) <= xp.maximum(tie_r, tie_f))
     # the first touch (the rear on equal times); the impact: that one's, the rear one's if tied
     first_r = hit_r & (~hit_f | (c_r <= c_f))
     rear = first_r | tied
 
-    def side(x, use_rear):
-        return xp.where(use_rear, _sides(x[..., 1], zero, xp)[0], _sides(x[..., 0], zero, xp)[1])
+    def side(i, use_rear):   # (i: 0 the speeds at the end, 1 at touch, 2 the peaks)
+        return xp.where(use_rear, by_rear[3 + i], by_front[6 + i])
 
     hit = hit_r | hit_f
-    dv = xp.where(hit, side(v_end, rear) - side(v_touch, first_r), 0.0)
-    acc = xp.where(hit, side(first["peak_acc"], rear), 0.0)
+    dv = xp.where(hit, side(0, rear) - side(1, first_r), 0.0)
+    acc = xp.where(hit, side(2, rear), 0.0)
     # the scene's first impact: of the first touches simultaneous with the earliest, the lowest
     # contact index's, from the earliest
-    w_min = xp.min(eff, axis=-1, keepdims=True)
+    # (the arrays' own reductions: the same as xp's functions, without their dispatch)
+    w_min = eff.min(axis=-1, keepdims=True)
     group = touched & (eff - xp.where(xp.isinf(w_min), 0.0, w_min) <= tie)
-    k1 = xp.argmax(group, axis=-1)[..., None] == xp.arange(c0.shape[-1])
-    duration = xp.where(xp.any(group, axis=-1),
-                        xp.sum(xp.where(k1, end, 0.0), axis=-1)
-                        - xp.min(xp.where(group, c0, xp.inf), axis=-1), 0.0)
+    k1 = group.argmax(axis=-1)[..., None] == xp.arange(c0.shape[-1])
+    duration = xp.where(group.any(axis=-1), xp.where(k1, end, 0.0).sum(axis=-1)
+                        - xp.where(group, c0, xp.inf).min(axis=-1), 0.0)
     return dv, acc, duration
 
 

@@ -327,12 +327,12 @@ class HybridModel:
         v_scale = self.speed_scale(p, xp) if v_scale is None else v_scale
         horizon = self.horizon(p, xp) if horizon is None else horizon
         D, Dd = self.deformation(xp.asarray(y), p, xp)
-        modes = xp.stack([xp.asarray(st["mode"]) for st in disc[: self.K]])
-        gaps = xp.stack([xp.asarray(law.closing_gap(D[k], disc[k]), dtype=float)
-                         for k, law in enumerate(self.laws)])
+        modes = xp.asarray([st["mode"] for st in disc[: self.K]])   # (one call each: stacked)
+        gaps = xp.asarray([law.closing_gap(D[k], disc[k]) for k, law in enumerate(self.laws)],
+                          dtype=float)
         late = gaps > Dd * (horizon - t)
         idle = (modes == 0) & ((Dd <= OVER_TOL * v_scale) | late)
-        apart = xp.all(idle if shut is None else idle | xp.asarray(shut))
+        apart = (idle if shut is None else idle | xp.asarray(shut)).all()
         return bool(apart) if xp is np else apart
 
     # ------------------------------------------------------------------ scales

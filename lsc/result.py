@@ -464,10 +464,13 @@ def _check_finite(r: Result) -> None:
 def _all_finite(r: Result) -> bool:
     """Whether every metric and total is finite, ``failure_time`` NaN or finite (the common
     case, told in one pass; the documented NaN otherwise is checked one by one)."""
-    values = [getattr(r, name) for name in (*METRICS, *TOTALS) if name != "failure_time"]
     # (on Python floats: a few numbers per metric, where NumPy's cost per call dominates)
-    return (all(math.isfinite(x) for v in values
-                for x in (v.ravel().tolist() if isinstance(v, np.ndarray) else (v,)))
+    flat = []
+    for name in (*METRICS, *TOTALS):
+        if name != "failure_time":
+            value = getattr(r, name)
+            flat += value.ravel().tolist() if isinstance(value, np.ndarray) else (value,)
+    return (all(map(math.isfinite, flat))
             and not any(map(math.isinf, r.failure_time.ravel().tolist())))
 
 

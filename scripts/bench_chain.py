@@ -11,7 +11,9 @@ deformation, relative to each metric's scale).
     python scripts/bench_chain.py --against main.pkl
 
 Also printed: the same exact solve with its kept modes dropped before each solve (a chain whose
-masses and slopes were not solved before: the eigensolves are paid again), the time of the exact
+masses and slopes were not solved before: the eigensolves are paid again), from the scene's dict
+(``lsc.solve(dict)``: the Scene kept by content, :mod:`lsc.scene._cache`, its model built anew
+each time), the time of the exact
 segment loop alone (``stats["wall_time"]``) and what comes on top of it in ``lsc.solve`` (the
 model, the backend's checks, the peaks inside the segments, searched after the loop for all
 segments at once, and the Result's metrics).
@@ -92,12 +94,14 @@ def main() -> None:
     lsc.solve(scene, method="scipy", rtol=1e-10)
     t_exact, loop_exact, exact = best_time(scene, args.repeat, method="exact-chain")
     t_fresh, loop_fresh, _ = best_time(scene, args.repeat, True, method="exact-chain")
+    t_dict, loop_dict, _ = best_time(SCENE, args.repeat, method="exact-chain")
     t_scipy, loop_scipy, scipy = best_time(scene, args.repeat, method="scipy", rtol=1e-10)
     print(f"scene: {SCENE['name']} ({len(exact.events)} events)")
     print(f"{'method':<22}{'lsc.solve [ms]':>16}{'solve loop [ms]':>17}{'diff vs exact':>15}")
     print(f"{'exact-chain':<22}{1e3 * t_exact:>16.3f}{1e3 * loop_exact:>17.3f}{0.0:>15.1e}")
     print(f"{'exact-chain, new modes':<22}{1e3 * t_fresh:>16.3f}{1e3 * loop_fresh:>17.3f}"
           f"{0.0:>15.1e}")
+    print(f"{'exact-chain, dict':<22}{1e3 * t_dict:>16.3f}{1e3 * loop_dict:>17.3f}{0.0:>15.1e}")
     print(f"{'scipy DOP853 1e-10':<22}{1e3 * t_scipy:>16.3f}{1e3 * loop_scipy:>17.3f}"
           f"{difference(scipy, exact):>15.1e}")
     print(f"speed-up of exact-chain: {t_scipy / t_exact:.1f}x (target 50x); of its "

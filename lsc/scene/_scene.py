@@ -18,6 +18,7 @@ from ..display import SPEED_UNITS, speed_display
 from ..errors import SceneError
 from ..laws import Damping
 from ..units import STANDARD_G, UNITS
+from ._cache import cached as _cached, content_key as _content_key, keep as _keep
 from ._parts import Contact, SolverSettings, Vehicle, _contact, _solver, _vehicle
 from ._read import _MISSING, MAGNITUDES, _fmt, _plain, _qty, _shown, _table
 from ._tables import (_COLUMN_KEYS, _LOADING_KINDS, _UNLOADING_KINDS, MAX_SCENE_BYTES, Reader,
@@ -276,9 +277,14 @@ def _load(obj, *, base_dir=None) -> Scene:
         bd = Path(base_dir) if base_dir is not None else file.parent
         return _build(src, bd.absolute(), file.stem, src)
     if isinstance(obj, _Mapping):
-        src = _plain(obj)
-        bd = Path(base_dir) if base_dir is not None else Path.cwd()
-        return _build(src, bd.absolute(), "scene", src)
+        bd = (Path(base_dir) if base_dir is not None else Path.cwd()).absolute()
+        key = _content_key(obj, bd)   # (the same content loaded before: that Scene)
+        scene = _cached(key)
+        if scene is None:
+            src = _plain(obj)
+            scene = _build(src, bd, "scene", src)
+            _keep(key, scene)
+        return scene
     raise SceneError("", f"a scene is a dict, a TOML file path or an lsc.Scene, got {type(obj).__name__}")
 
 

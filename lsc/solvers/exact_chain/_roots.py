@@ -14,6 +14,7 @@ A function of the rigid modes alone is a quadratic, solved in closed form.
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -114,10 +115,10 @@ def earliest(funcs, lo: float, hi: float,
     step = tt[1] - tt[0]
     bounds = stack.curvature_bounds(hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
-    if max(starts) > lo:   # (the intervals before a function's start are not its own)
-        first = np.searchsorted(tt, starts, side="right") - 1
-        unclear &= np.arange(unclear.shape[1])[None, :] >= first[:, None]
     times = tt.tolist()
+    for j, start in enumerate(starts):   # (the intervals before a function's start are not
+        if start > lo:                   # its own)
+            unclear[j, :bisect.bisect_right(times, start) - 1] = False
     width = TOUCH * max(hi, 1e-300)
     # the functions in the order of their first unclear interval: one whose interval starts
     # after the earliest crossing found is not searched
