@@ -404,3 +404,33 @@ def test_five_touching_cars_are_the_single_solve_member_by_member(e, monkeypatch
     out = exact_chain.solve_batch(HybridModel(scene), values)
     assert alone == []
     assert _differing(scene, values, out, rtol=1e-10) == []
+
+
+def test_a_touch_at_rest_shut_by_a_neighbour_is_solved_in_the_batch(monkeypatch):
+    """Cars 2 and 3 touching at the same speed, struck through a 0.86 ft gap 5.25 s later: at
+    the strike contact 2's closing rate is zero to the rounding of its deformation through the
+    stiff modes (k D of a few ulps), which the batch's start tolerance of a rate includes as
+    the single solve's does: the member takes its 6 events in the batch, the single solve's
+    numbers. (Without that term the rate fired max deformation, then the reload, at one
+    instant, over and over: the member reached the hand-off's 200 events and went to the single
+    solve; member 2029 of bench_chain_sweep.py's 20,000.)"""
+    alone = []
+    original = _batch.solve_alone
+    monkeypatch.setattr(_batch, "solve_alone",
+                        lambda solve, model, values, members, *a, **kw:
+                        alone.extend(members) or original(solve, model, values, members, *a, **kw))
+    scene, _ = random_chains(3, 1, 1)
+    values = {k: np.array([v]) for k, v in {
+        "vehicles.0.mass": 84.58964243582457, "vehicles.0.speed": 10.857601598573206,
+        "vehicles.1.mass": 115.35014761678096, "vehicles.1.speed": 10.693214683960552,
+        "vehicles.2.mass": 59.2092272898006, "vehicles.2.speed": 10.693214683960552,
+        "contacts.0.loading.stiffness": 1743266.229126959,
+        "contacts.0.unloading.restitution": 0.9933792202716892,
+        "contacts.0.gap": 0.8637340985901553,
+        "contacts.1.loading.stiffness": 2652646.5250337957,
+        "contacts.1.unloading.restitution": 0.5637672274215909,
+        "contacts.1.gap": 0.0}.items()}
+    out = exact_chain.solve_batch(HybridModel(scene), values)
+    assert alone == []
+    assert len(_single(scene, values, 0).events) == 6
+    assert _differing(scene, values, out) == []

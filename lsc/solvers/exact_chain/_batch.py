@@ -185,8 +185,8 @@ class _Batch:
         slope = S("s")
         force = S("fa") + slope * (D0 - S("da"))
         motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C)
-        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix)
         omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
+        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix, omega)
         limit = self.horizon[ix] - w["t"]
         with np.errstate(all="ignore"):
             start = start_times(g, tol, omega, limit)
@@ -243,15 +243,20 @@ class _Batch:
         return w, st, first, keep
 
     # ------------------------------------------------------------------ pieces
-    def _event_functions(self, motion, st, D0, W0, x0, v0, ix):
+    def _event_functions(self, motion, st, D0, W0, x0, v0, ix, omega):
         """The event functions ``(Sums (b, 3K), armed (b, 3K), tolerance at the start)`` in the
-        model's event order (contact ``k``: lower end, upper end, closing rate)."""
+        model's event order (contact ``k``: lower end, upper end, closing rate); ``omega``
+        (b,) [1/s]: the start state's rate (:meth:`._solve._Chain._earliest`'s)."""
         b, K = D0.shape
         P = motion.P
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
         length = self.v_scale[ix] * self.t_scale[ix]
         tol_d = START_TOL * length + 16 * _EPS * np.max(np.abs(x0), axis=1)
-        tol_w = START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+        # (a rate's rounding includes the deformation's through the fastest mode, as the
+        # single solve's: a rounding-size k D at a touch would fire max deformation and reload
+        # at one instant, over and over, up to HANDOFF_EVENTS)
+        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+                 + omega * tol_d)
         c, alpha, gamma, armed, tol = [], [], [], [], []
         for k, s in enumerate(st):
             for kind in range(3):
