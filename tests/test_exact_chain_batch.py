@@ -255,21 +255,41 @@ def test_sweep_goes_through_the_batch(monkeypatch):
 
 def test_peaks_taken_at_the_ends_where_no_function_turns():
     """A segment's peaks are searched only where a force or a middle vehicle's acceleration may
-    turn inside it (a contact unloading, or loaded on both sides of the vehicle); elsewhere the
-    ends give them. On random 3- and 4-car chains, segment by segment, they are the peaks that
-    the search of every loaded contact's force finds (to rounding), the ends taken for many
-    segments; and every member's peak force and acceleration is the single solve's."""
+    turn inside it (a contact unloading, or loaded on both sides of the vehicle) and may change
+    the first-impact record (a force on an unloading line stays below its top, F_max, which
+    the record holds; a middle vehicle's acceleration below the larger of its forces' bounds
+    over its mass); elsewhere the ends give them. On random 3- and 4-car chains, segment by
+    segment, every value that exceeds what the record holds is the one that the search of every
+    loaded contact's force finds (to rounding), and every other one stays below the record;
+    the ends are taken for many segments and many functions are left to the record; and every
+    member's peak force and acceleration is the single solve's."""
     original = _batch._Batch._peaks
-    taken = []
+    taken, kept = [], []
 
-    def peaks(self, motion, slope, force, ix, r, tau, monotone):
-        got, unsure = original(self, motion, slope, force, ix, r, tau, monotone)
-        want, unsure_all = original(self, motion, slope, force, ix, r, tau,
-                                    np.zeros_like(monotone))
-        ok = ~unsure & ~unsure_all
+    def peaks(self, motion, slope, force, ix, r, tau, monotone, unloads, top_force, bars):
+        got, unsure = original(self, motion, slope, force, ix, r, tau, monotone, unloads,
+                               top_force, bars)
+        none = np.zeros_like(monotone)
+        want, unsure_all = original(self, motion, slope, force, ix, r, tau, none, none,
+                                    top_force, np.full(bars.shape, -np.inf))
+        ok = (~unsure & ~unsure_all)[:, None]
         scale = np.max(np.abs(want), axis=1, keepdims=True)
-        assert np.all(np.abs(got - want)[ok] <= 1e-13 * np.broadcast_to(scale, got.shape)[ok])
+        # (what each peak must exceed to enter the record: an end vehicle's, its force's
+        # over its mass)
+        K, m = self.K, self.m[ix[r]]
+        bar = np.concatenate([bars[:, :K], bars[:, :1] / m[:, :1], bars[:, K:],
+                              bars[:, K - 1:K] / m[:, -1:]], axis=1)
+        size = np.abs(want)
+        size[:, :K] = want[:, :K]
+        matters = size > bar
+        close = np.abs(got - want) <= 1e-13 * np.broadcast_to(scale, got.shape)
+        assert np.all(close[ok & matters])
+        value = np.abs(got)
+        value[:, :K] = got[:, :K]
+        below = value <= bar + 1e-13 * np.broadcast_to(scale, got.shape)
+        assert np.all(below[ok & ~matters])
         taken.append(int(np.sum(monotone.any(axis=1))))
+        kept.append(int(np.sum(~matters & np.isfinite(bar))))
         return got, unsure
 
     for N, seed in ((3, 23), (4, 29)):
@@ -283,7 +303,7 @@ def test_peaks_taken_at_the_ends_where_no_function_turns():
                 want, got = np.asarray(getattr(r, name), float), out["metrics"][name][j]
                 tol = 1e-12 * np.max(np.abs(want)) + rounding(r)[name]
                 assert np.all(np.abs(got - want) <= tol), (j, name, want, got)
-    assert sum(taken) > 100
+    assert sum(taken) > 100 and sum(kept) > 100
 
 
 @pytest.mark.parametrize("w", [1e-3, 1.0, 37.0, 2.5e3, 1e5])

@@ -94,6 +94,18 @@ def _subset(p: dict, rows) -> dict:
 _MAY_BE_NAN = ("restitution", "restitution_energy", "failure_time")
 
 
+def _bars(first, ongoing, r):
+    """(m, K + N - 2) of members ``r``: what each contact's force and each middle vehicle's
+    acceleration (magnitude) must exceed to change the first-impact record
+    (:func:`lsc.metrics.fold_peaks`, which folds them into the contacts whose first impact is
+    ``ongoing``; inf where none is): the peak force so far; the smaller magnitude of the
+    vehicle's peak accelerations in its two contacts (front of one, rear of the next)."""
+    ong = ongoing[r]
+    force = np.where(ong, first["peak_force"][r], np.inf)
+    acc = np.where(ong[..., None], np.abs(first["peak_acc"][r]), np.inf)     # (m, K, 2)
+    return np.concatenate([force, np.minimum(acc[:, :-1, 1], acc[:, 1:, 0])], axis=1)
+
+
 def _resolved(t0, t1):
     """Whether the clock resolves ``[t0, t1]`` to :data:`lsc.impacts.TIME_RESOLUTION`
     (:func:`lsc.impacts.check_resolved`, on arrays; NaN ``t0``: nothing to check)."""
@@ -208,7 +220,8 @@ class _Batch:
             # ends the segment; not where that rate stays on its surface, start NaN)
             rate_start = start[:, 2::3][r]
             monotone = (S("vm")[r] != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
-            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone)
+            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone,
+                                        S("vm")[r] == 0, S("fa")[r], _bars(first, ongoing, r))
             keep[r[unsure]] = False
             F_pk = np.zeros((b, K))
             a_pk = np.zeros((b, N))
@@ -277,7 +290,7 @@ class _Batch:
                  motion.kappa, motion.w)
         return g, np.stack(armed, axis=1), np.stack(tol, axis=1)
 
-    def _peaks(self, motion, slope, force, ix, r, tau, monotone):
+    def _peaks(self, motion, slope, force, ix, r, tau, monotone, unloads, top_force, bars):
         """Each contact's largest force and each vehicle's acceleration of largest magnitude
         (signed) over ``[0, τ]`` of members ``r``: ``(peaks (m, K + N), undecided (m,))`` (as
         :meth:`._solve._Chain._peaks`). The extrema are searched on the forces and on the
@@ -287,7 +300,16 @@ class _Batch:
         contact with no slope has a constant force, one loading all along (``monotone`` (m,
         K): its deformation rises up to the segment's end) a monotone one, and a vehicle
         pushed by one such force and a constant one a monotone acceleration; a member whose
-        functions are all such takes its extremes at the two ends."""
+        functions are all such takes its extremes at the two ends.
+
+        Nor where the value cannot change the first-impact record: ``bars`` (m, K + N - 2)
+        (:func:`_bars`), what a force or a middle vehicle's acceleration must exceed to be
+        folded into it (inf: not folded). A force lies in ``[0, U]``: ``U`` 0 open, the larger
+        end loading all along, ``top_force`` (m, K) on an unloading line (``unloads`` (m, K):
+        the line's top, ``(D_max, F_max)``, which the deformation stays below), unknown
+        otherwise; a middle vehicle's acceleration, the difference of two such forces over
+        its mass, is at most the larger ``U`` over its mass. A function whose bound is at most
+        its bar is taken at its ends (its extremes there or below the record)."""
         K, N = self.K, self.N
         P = motion.P[r]
         rows = slope[r][:, :, None] * P                                    # (m, K, N)
@@ -308,14 +330,19 @@ class _Batch:
         pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
         wild = (np.abs(inc) @ turns.T.astype(int)) > 0
         want = np.concatenate([turns, ((pushed > 1) | wild).T], axis=1)     # (m, K + N - 2)
-        search = want.any(axis=1)
         end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
+        bound = np.where(~loaded, 0.0, np.where(monotone, np.maximum(c[:, :K], end[:, :K]),
+                                                np.where(unloads, top_force, np.inf)))
+        near = np.abs(inc) > 0
+        middle = np.max(np.where(near[None], bound[:, None, :], 0.0), axis=2) / m[:, 1:N - 1]
+        want &= ~(np.concatenate([bound, middle], axis=1) <= bars)
+        search = want.any(axis=1)
         top, bottom = np.maximum(c, end), np.minimum(c, end)
         undecided = np.zeros(r.size, bool)
         if search.any():
             q = np.flatnonzero(search)
             top[q], bottom[q], undecided[q] = extreme_values(series.take(q), tau[q], largest,
-                                                             want[q])
+                                                             want[q], bars[q])
         signed = np.where(np.abs(top) >= np.abs(bottom), top, bottom)
         # (contact 0 pushes vehicle 0 back, contact K - 1 pushes vehicle N - 1 forward)
         return np.concatenate([top[:, :K], -signed[:, :1] / m[:, :1], signed[:, K:],

@@ -359,7 +359,7 @@ FLAT = 1e-14
 PEAK_LEVELS = 6
 
 
-def extreme_values(g: Sums, T, largest, turns=None):
+def extreme_values(g: Sums, T, largest, turns=None, bars=None):
     """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
     values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
     ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
@@ -425,6 +425,8 @@ def extreme_values(g: Sums, T, largest, turns=None):
                      + w[m, 0, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[m, j, i]))
             tm, bm = top[r[m], j], bottom[r[m], j]
             peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
+            if bars is not None:
+                peak = np.maximum(peak, bars[r[m], j])
             m, j, i = (x[~(reach < peak)] for x in (m, j, i))
             roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
                            rtol=EXTREMUM_RTOL)
