@@ -4,11 +4,11 @@
 Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on windows of
 steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode; :data:`WINDOW` / 2 steps first, twice
 as many each window after, up to 64 :data:`WINDOW`), every member on its own window, all members
-in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
-from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
-both exceed that holds no zero; the first interval of a member that does not is either a sign
-change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
-once) or is sampled again :data:`WINDOW` times finer, until narrower than :data:`._roots.TOUCH`
+in one NumPy evaluation. Between two samples ``Δ`` apart a function differs from its chord by
+at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples both exceed
+that holds no zero; the first interval of a member that does not is either a sign change (a
+bracket, refined to a few ulps by Newton's method kept inside it, every window's brackets
+at once) or is sampled again :data:`WINDOW` times finer, until narrower than :data:`._roots.TOUCH`
 of its time, where it is a touch (as the single solve decides). A member whose intervals the
 bound still cannot clear after :data:`LEVELS` finer samplings is handed back as *undecided*:
 the caller solves it alone, with :mod:`._roots`' own search.
@@ -126,32 +126,48 @@ def _earliest(g: Sums, search, start, limit):
     live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
     step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
     lo = np.zeros(b)
+    brackets = []
     for k in range(MAX_WINDOWS):
         if not live.size:
             break
         # (windows that double from half a window, up to 128 times the first: most events
         # lie within the first few samples, and a member whose event is far away takes few)
         count = (WINDOW // 2) << min(k, 7)
-        t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
-                                                   g_start[live], lo[live], step[live],
-                                                   limit[live], search[live], count)
-        got = j_found >= 0
-        tau[live[got]], which[live[got]] = t_found[got], j_found[got]
+        got, cleared, stuck = _window(g.take(live), B[live], start[live], g_start[live],
+                                      lo[live], step[live], limit[live], search[live], count,
+                                      brackets, live)
         undecided[live[stuck]] = True
         lo[live] = cleared
         live = live[~got & ~stuck & (cleared < limit[live])]
     undecided[live] = True
+    if brackets:
+        # every window's brackets refined at once (each on its own: the same zeros as one
+        # window at a time, in one pass of Newton's method)
+        mem, jj, ta, tb, fa, fb = (np.concatenate(x) for x in zip(*(q[:6] for q in brackets)))
+        h = Sums.joined([q[6] for q in brackets])
+        order = np.argsort(mem, kind="stable")
+        root = refine(h, ta, tb, fa, fb)[order]
+        mem, jj = mem[order], jj[order]
+        # (each member's earliest zero, the first function of it)
+        starts = np.flatnonzero(np.r_[True, mem[1:] != mem[:-1]])
+        best = np.minimum.reduceat(root, starts)
+        jbest = np.minimum.reduceat(
+            np.where(root == np.repeat(best, np.diff(np.r_[starts, mem.size])), jj, F_BIG),
+            starts)
+        tau[mem[starts]], which[mem[starts]] = best, jbest
     return tau, which, undecided
 
 
-def _window(g, B, start, g_start, lo, step, limit, search, count):
-    """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
+
+def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, members):
+    """One window of each member (see :func:`earliest`): ``(found (a bracket), where the
     search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's
     bound cannot clear is sampled again :data:`WINDOW` times finer (up to :data:`LEVELS`
-    times)."""
+    times). The brackets found are appended to ``brackets``: ``(member (its entry of
+    ``members``), function, ends, values at the ends, the function (Sums))``, for
+    :func:`refine`."""
     n = g.c.shape[0]
-    found_t = np.full(n, np.nan)
-    found_j = np.full(n, -1)
+    found = np.zeros(n, bool)
     stuck = np.zeros(n, bool)
     a, h, end = lo, step, np.minimum(lo + count * step, limit)
     cleared = end.copy()
@@ -199,16 +215,10 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
             rr, jj = np.nonzero(cr[r])
             mem = r[rr]
             ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
-            root = refine(gg.take(mem, jj), ta, tt[mem, ic[mem] + 1], left[mem, jj, ic[mem]],
-                          right[mem, jj, ic[mem]])
-            # (each member's earliest root, the first function of it: ``mem`` is sorted, and
-            # every member of ``r`` has a bracket)
-            starts = np.flatnonzero(np.r_[True, mem[1:] != mem[:-1]])
-            best = np.minimum.reduceat(root, starts)
-            jbest = np.minimum.reduceat(
-                np.where(root == np.repeat(best, np.diff(np.r_[starts, mem.size])), jj, F_BIG),
-                starts)
-            found_t[todo[r]], found_j[todo[r]] = best, jbest
+            brackets.append((members[todo[mem]], jj, ta, tt[mem, ic[mem] + 1],
+                             left[mem, jj, ic[mem]], right[mem, jj, ic[mem]],
+                             gg.take(mem, jj)))
+            found[todo[r]] = True
         if level == LEVELS:
             stuck[todo[deeper]] = True
             break
@@ -220,7 +230,7 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
         steps = WINDOW
         h = (end - a) / steps
         todo = todo[sel]
-    return found_t, found_j, cleared, stuck
+    return found, cleared, stuck
 
 
 F_BIG = np.iinfo(np.int64).max
