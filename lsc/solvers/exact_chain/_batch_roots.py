@@ -394,7 +394,7 @@ def extreme_values(g: Sums, T, largest, turns=None, bars=None):
     top = np.full((b, F), -np.inf)
     bottom = np.full((b, F), np.inf)
     undecided = np.zeros(b, bool)
-    late = []
+    late, zeros = [], []
     # the intervals still to sample: member, start, end, step, level (0: the end is T), and
     # the pass one window at a time would sample it on (its age)
     r = np.arange(b)
@@ -438,11 +438,8 @@ def extreme_values(g: Sums, T, largest, turns=None, bars=None):
             if bars is not None:
                 peak = np.maximum(peak, bars[r[m], j])
             m, j, i = (x[~(reach < peak)] for x in (m, j, i))
-            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
-                           rtol=EXTREMUM_RTOL)
-            at = gl.take(m, j).each_at(roots[:, None])[:, 0]
-            np.fmax.at(top, (r[m], j), at)
-            np.fmin.at(bottom, (r[m], j), at)
+            zeros.append((r[m], j, tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
+                          dl.take(m, j), gl.take(m, j)))
         low = np.minimum(np.abs(a), np.abs(c))
         grazing = ~change & (low <= margin)
         if turns is not None:
@@ -474,6 +471,12 @@ def extreme_values(g: Sums, T, largest, turns=None, bars=None):
         keep = ~late_pass
         r, lo, hi, h, level, age = r[keep], lo[keep], hi[keep], h[keep], level[keep], age[keep]
     undecided[r] = True
+    if zeros:    # (the derivative's zeros of every pass refined at once, each on its own)
+        m, j, ta, tb, fa, fb = (np.concatenate(x) for x in zip(*(q[:6] for q in zeros)))
+        roots = refine(Sums.joined([q[6] for q in zeros]), ta, tb, fa, fb, rtol=EXTREMUM_RTOL)
+        at = Sums.joined([q[7] for q in zeros]).each_at(roots[:, None])[:, 0]
+        np.fmax.at(top, (m, j), at)
+        np.fmin.at(bottom, (m, j), at)
     size = np.maximum(np.abs(top), np.abs(bottom))
     for m, j, excess in late:
         undecided[m[excess > FLAT * size[m, j]]] = True
