@@ -157,8 +157,9 @@ class _Batch:
         code[status0] = ALONE
         keep = ~status0
         while True:
-            w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
-                            self._take(first, keep))
+            if not keep.all():    # (the members handed to the single solve dropped)
+                w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
+                                self._take(first, keep))
             if not w["ix"].size:
                 break
             over = self._over(w, st)
