@@ -454,3 +454,49 @@ def test_a_touch_at_rest_shut_by_a_neighbour_is_solved_in_the_batch(monkeypatch)
     assert alone == []
     assert len(_single(scene, values, 0).events) == 6
     assert _differing(scene, values, out) == []
+
+
+#: A chain whose stiff, near-plastic rear contact chatters while the soft front one is loaded:
+#: 226 events (member 518 of bench_chain_sweep.py's 20,000).
+CHATTER = {"vehicles.0.mass": 425.1947370235454, "vehicles.0.speed": 23.99428685562417,
+           "vehicles.1.mass": 350.8367781377573, "vehicles.1.speed": 23.60162333125918,
+           "vehicles.2.mass": 412.0702253147719, "vehicles.2.speed": 19.11184986072726,
+           "contacts.0.loading.stiffness": 8137573.563619408,
+           "contacts.0.unloading.restitution": 0.10153149455336491, "contacts.0.gap": 0.0,
+           "contacts.1.loading.stiffness": 6019.474941675754,
+           "contacts.1.unloading.restitution": 0.7054647820951969,
+           "contacts.1.gap": 0.003166371812572444}
+
+
+def _handed(monkeypatch) -> list:
+    """The members the batch hands to the single solve (filled as it runs)."""
+    alone = []
+    original = _batch.solve_alone
+    monkeypatch.setattr(_batch, "solve_alone",
+                        lambda solve, model, values, members, *a, **kw:
+                        alone.extend(members) or original(solve, model, values, members, *a, **kw))
+    return alone
+
+
+def test_a_chattering_member_is_taken_on_from_the_hand_off(monkeypatch):
+    """A member still running at the hand-off's event count is taken on from the batch's state
+    by the single solve's own segments, not solved again from t = 0: the single solve's numbers
+    (to the rounding the tests allow), its 226 events."""
+    alone = _handed(monkeypatch)
+    scene, _ = random_chains(3, 1, 1)
+    values = {k: np.array([v]) for k, v in CHATTER.items()}
+    out = exact_chain.solve_batch(HybridModel(scene), values)
+    assert alone == []
+    assert len(_single(scene, values, 0).events) == 226 > _batch.HANDOFF_EVENTS
+    assert _differing(scene, values, out) == []
+
+
+def test_a_member_taken_on_that_reaches_the_event_limit_has_the_single_solves_message(
+        monkeypatch):
+    alone = _handed(monkeypatch)
+    scene, _ = random_chains(3, 1, 1)
+    values = {k: np.array([v]) for k, v in CHATTER.items()}
+    out = exact_chain.solve_batch(HybridModel(scene), values, max_events=210)
+    assert alone == [0]
+    assert out["status"][0] == _single(scene, values, 0, max_events=210)
+    assert out["status"][0].startswith("SimulationError: event limit reached (210 events by t = ")
