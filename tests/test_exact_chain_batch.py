@@ -500,3 +500,33 @@ def test_a_member_taken_on_that_reaches_the_event_limit_has_the_single_solves_me
     assert alone == [0]
     assert out["status"][0] == _single(scene, values, 0, max_events=210)
     assert out["status"][0].startswith("SimulationError: event limit reached (210 events by t = ")
+
+
+def test_a_segment_the_batch_search_cannot_decide_is_taken_on_from_its_start(monkeypatch):
+    """Three cars touching at one speed, the last one 0.86 ft ahead behind a stiff contact
+    (member 582 of random 4-car chains, seed 5; 17 events): the batch's sampled search cannot
+    decide one of its segments (its bound clears no interval within its levels: undecided);
+    the member is taken on from that segment's start by the single solve's own search (its
+    Taylor test, its bisection), not solved again from t = 0: the single solve's numbers."""
+    alone = _handed(monkeypatch)
+    taken = []
+    original = _batch._Batch._resume
+    monkeypatch.setattr(_batch._Batch, "_resume",
+                        lambda self, i, w, *a: taken.append(int(w["nev"][i]))
+                        or original(self, i, w, *a))
+    scene, _ = random_chains(4, 1, 1)
+    values = {k: np.array([v]) for k, v in {
+        "vehicles.0.mass": 337.6880992450607, "vehicles.0.speed": 3.0291824529346307,
+        "vehicles.1.mass": 483.2195719440055, "vehicles.1.speed": 3.0291824529346307,
+        "vehicles.2.mass": 100.19940206757762, "vehicles.2.speed": 3.0291824529346307,
+        "vehicles.3.mass": 126.30719067220738, "vehicles.3.speed": 0.0,
+        "contacts.0.loading.stiffness": 1935.947428570366,
+        "contacts.0.unloading.restitution": 0.951327196601014, "contacts.0.gap": 0.0,
+        "contacts.1.loading.stiffness": 1071.447313640242,
+        "contacts.1.unloading.restitution": 0.32388837980755536, "contacts.1.gap": 0.0,
+        "contacts.2.loading.stiffness": 7352054.058338084,
+        "contacts.2.unloading.restitution": 0.3269638311222375,
+        "contacts.2.gap": 0.8570282970437636}.items()}
+    out = exact_chain.solve_batch(HybridModel(scene), values)
+    assert alone == [] and len(taken) == 1 and 0 < taken[0] < _batch.HANDOFF_EVENTS
+    assert _differing(scene, values, out) == []
