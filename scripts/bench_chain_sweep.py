@@ -6,9 +6,11 @@ on that subset (every metric, relative to its scale per member).
 Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): masses 50 to
 1000 lb (1:20), stiffnesses 1e3 to 1e7 lbf/ft, restitutions in [--e-min, 1] (a fifth elastic), gaps of 1e-3 to 1 ft (or none, 40 %), closing speeds 0.1 to
 30 ft/s per pair (or none, 30 %), the front car at rest or moving. The batch hands a member to
-the single solve where its vectorised search cannot decide, or after 200 events (contacts that
-chatter): the count is reported, with the time the single solve spends on them (summed over the
-worker processes), and the vectorised path's own throughput without them.
+the single solve where its vectorised search cannot decide: the count is reported, with the
+time the single solve spends on them (summed over the worker processes), and the vectorised
+path's own throughput without them; a member still running after 200 events (contacts that
+chatter) is taken on from its state by the single solve's segments, within that path (their
+count and time reported too).
 
 The sweep is run in this process (``--workers 1``) and on a process pool (``--workers 2``:
 ``lsc.sweep(..., executor=ProcessPoolExecutor(2))``, chunks of :func:`lsc.chunks.task_size`
@@ -49,30 +51,37 @@ from test_exact_chain_batch import SCALE_OF  # noqa: E402
 _SINGLE = _batch.solve_one
 
 
+#: The continuation the batch runs on a member at its hand-off's event count.
+_RESUME = _batch._Batch._resume
+
+
 def _count_alone(shared) -> None:
     """Wrap the single solve the batch runs on a handed member, adding its wall and CPU time
-    to ``shared`` (a ``multiprocessing`` array: members, time, CPU time); also a pool's
+    to ``shared`` (a ``multiprocessing`` array: members, time, CPU time; then the same for the
+    members taken on from the hand-off, :meth:`_batch._Batch._resume`); also a pool's
     initializer, so that the workers' hand-offs are counted too."""
-    original = _SINGLE
 
-    def counted(*args, **kw):
-        start, cpu = time.perf_counter(), time.process_time()
-        try:
-            return original(*args, **kw)
-        finally:
-            with shared.get_lock():
-                shared[0] += 1
-                shared[1] += time.perf_counter() - start
-                shared[2] += time.process_time() - cpu
+    def counting(original, at):
+        def counted(*args, **kw):
+            start, cpu = time.perf_counter(), time.process_time()
+            try:
+                return original(*args, **kw)
+            finally:
+                with shared.get_lock():
+                    shared[at] += 1
+                    shared[at + 1] += time.perf_counter() - start
+                    shared[at + 2] += time.process_time() - cpu
+        return counted
 
-    _batch.solve_one = counted
+    _batch.solve_one = counting(_SINGLE, 0)
+    _batch._Batch._resume = counting(_RESUME, 3)
 
 
 def _sweep(scene, values, workers: int, task_size):
     """``(result, wall time, members handed off, their time and CPU time summed over the
-    workers, this process's CPU time)`` of ``lsc.sweep`` with ``workers`` processes (1: this
-    process)."""
-    shared = multiprocessing.Array("d", 3)
+    workers, this process's CPU time, (members taken on from the hand-off, their time, their
+    CPU time))`` of ``lsc.sweep`` with ``workers`` processes (1: this process)."""
+    shared = multiprocessing.Array("d", 6)
     executor = None
     if workers > 1:
         executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
@@ -88,7 +97,7 @@ def _sweep(scene, values, workers: int, task_size):
     finally:
         if executor is not None:
             executor.shutdown()
-    return res, wall, int(shared[0]), shared[1], shared[2], cpu
+    return res, wall, int(shared[0]), shared[1], shared[2], cpu, (int(shared[3]), *shared[4:])
 
 
 def main() -> None:
@@ -106,7 +115,8 @@ def main() -> None:
     scene, values = random_chains(a.vehicles, a.n, a.seed, a.e_min)
     res, t_batch = None, None
     for workers in (int(w) for w in a.workers.split(",")):
-        got, wall, handed, t_alone, cpu_alone, cpu = _sweep(scene, values, workers, a.task_size)
+        got, wall, handed, t_alone, cpu_alone, cpu, taken = _sweep(scene, values, workers,
+                                                                  a.task_size)
         res = got if res is None else res
         same = all(np.array_equal(got.metrics[k], res.metrics[k], equal_nan=True)
                    for k in METRICS) and np.array_equal(got.status, res.status)
@@ -118,7 +128,9 @@ def main() -> None:
               f"{wall:.2f} s wall: {a.n / wall:,.0f} members/s; failed "
               f"{int((res.status != 'ok').sum())}; handed to the single solve {handed} "
               f"({t_alone:.2f} s summed over the workers); vectorised path alone {done} in "
-              f"~{t_vec:.2f} s: {done / t_vec:,.0f} members/s"
+              f"~{t_vec:.2f} s: {done / t_vec:,.0f} members/s (of them taken on from the "
+              f"hand-off at {_batch.HANDOFF_EVENTS} events: {taken[0]}, {taken[1]:.2f} s "
+              f"summed over the workers)"
               + ("" if same else "; NOT the same numbers as the first run"))
         if workers == 1:
             # (the CPU time of this process too: on a shared machine the wall time counts the

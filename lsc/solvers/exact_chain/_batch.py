@@ -8,10 +8,12 @@ included: :func:`~._batch_roots.start_times`), folds the peaks between the event
 first-impact record (:func:`~._batch_roots.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
 contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
-Result computes them. A member the vectorised search cannot decide (a tangency, a segment
-longer than its windows, a law status, a non-finite state) or that reaches
-:data:`HANDOFF_EVENTS` events is solved alone (:func:`._solve.solve`), so that its numbers and
-its failure message are the single solve's own; none is dropped.
+Result computes them. A member that reaches :data:`HANDOFF_EVENTS` events is taken on from its
+state by the single solve's own segments (:meth:`_Batch._resume`). A member the vectorised
+search cannot decide (a tangency, a segment longer than its windows, a law status, a
+non-finite state), or that its continuation cannot finish plainly, is solved alone
+(:func:`._solve.solve`), so that its numbers and its failure message are the single solve's
+own; none is dropped.
 
 Straight loading lines and straight unloading lines only (``BACKEND.batch``): every slope is
 >= 0, and a contact never leaves its first loading piece.
@@ -24,7 +26,7 @@ import numpy as np
 from ... import metrics as _metrics
 from ... import parameters
 from ...contact import MODE_OPEN
-from ...errors import SceneError
+from ...errors import SceneError, SimulationError
 from ...locking import lock_members
 from ...impacts import TIME_RESOLUTION
 from ...model import OVER_TOL
@@ -34,17 +36,22 @@ from ..exact.batch import _Rows
 from ._batch_modes import BatchMotion, Sums
 from ._batch_roots import earliest, extreme_values, start_times
 from ._modes import deformation_map
-from ._solve import START_TOL, solve as solve_one
+from ._locks import LockTransitions
+from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
 
 __all__ = ["solve_batch", "HANDOFF_EVENTS"]
 
-#: A member still running after this many events (contacts that chatter) is handed to the
-#: single solve, which goes on to its end or to ``max_events`` as it would alone. (Measured on
-#: random 3-car chains: a batch event with ~10 members left costs what ~10 single-solve events
-#: do, so neither a lower budget, which hands more members over, nor a higher one pays; what
-#: the hand-offs cost is mostly members that reach ``max_events``, whose message the single
-#: solve's 10,000 events make.)
+#: A member still running after this many events (contacts that chatter) is taken on from its
+#: state by the single solve's segments (:meth:`_Batch._resume`), which go on to its end or to
+#: ``max_events`` (there the single solve, solved again alone, gives its message). (Measured
+#: on random 3-car chains: a batch event with ~10 members left costs what ~10 single-solve
+#: events do, so neither a lower budget nor a higher one pays; 20,000 members: 36 taken on,
+#: 226 to 940 events each, 1.8 s of CPU against 4.7 s solved again from t = 0.)
 HANDOFF_EVENTS = 200
+#: A member taken on still running after this many events is solved alone from t = 0 all the
+#: same (a chain that chatters to ``max_events``: the single solve's own message, whose
+#: 10,000 events would otherwise be made twice; random 3-car chains finish in 226 to 940).
+RESUME_EVENTS = 2_000
 _EPS = float(np.finfo(float).eps)
 #: Member status codes of :class:`_Batch`.
 RUNNING, DONE, ALONE = -1, 0, 1
@@ -66,6 +73,7 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
                                "loading scale); solve the members one by one (lsc.sweep does)")
     n = p["m"].shape[0]
     run = _Batch(model, p, min(max_events, HANDOFF_EVENTS))
+    run.values, run.max_total = values, max_events
     metrics, code = run.solve() if n else ({}, np.zeros(0, int))
     code[lock_members(model, p)] = ALONE   # (pairs that may lock: the single solve locks them)
     shapes = {"scene": (n,), "vehicle": (n, model.N), "contact": (n, model.K)}
@@ -92,6 +100,18 @@ def _subset(p: dict, rows) -> dict:
 
 #: The metrics that may be NaN (not applicable) in a Result (``lsc.result._NOT_APPLICABLE``).
 _MAY_BE_NAN = ("restitution", "restitution_energy", "failure_time")
+
+
+def _bars(first, ongoing, r):
+    """(m, K + N - 2) of members ``r``: what each contact's force and each middle vehicle's
+    acceleration (magnitude) must exceed to change the first-impact record
+    (:func:`lsc.metrics.fold_peaks`, which folds them into the contacts whose first impact is
+    ``ongoing``; inf where none is): the peak force so far; the smaller magnitude of the
+    vehicle's peak accelerations in its two contacts (front of one, rear of the next)."""
+    ong = ongoing[r]
+    force = np.where(ong, first["peak_force"][r], np.inf)
+    acc = np.where(ong[..., None], np.abs(first["peak_acc"][r]), np.inf)     # (m, K, 2)
+    return np.concatenate([force, np.minimum(acc[:, :-1, 1], acc[:, 1:, 0])], axis=1)
 
 
 def _resolved(t0, t1):
@@ -145,8 +165,9 @@ class _Batch:
         code[status0] = ALONE
         keep = ~status0
         while True:
-            w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
-                            self._take(first, keep))
+            if not keep.all():    # (the members handed to the single solve dropped)
+                w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
+                                self._take(first, keep))
             if not w["ix"].size:
                 break
             over = self._over(w, st)
@@ -161,22 +182,85 @@ class _Batch:
                 for key, a in first.items():
                     out_first[key][j] = a[over]
             alone = ~over & (w["nev"] >= self.max_events)
-            code[w["ix"][alone]] = ALONE
+            for i in np.flatnonzero(alone) if self.max_events < self.max_total else ():
+                self._resume(i, w, st, first, code, out, out_first)
+            code[w["ix"][alone & (code[w["ix"]] != DONE)]] = ALONE
             keep = ~over & ~alone
             if not keep.all():
                 w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
                                 self._take(first, keep))
             if not w["ix"].size:
                 break
-            w, st, first, keep = self._step(w, st, first)
-            code[w["ix"][~keep]] = ALONE
+            w, st, first, keep, fresh = self._step(w, st, first)
+            # (a segment the search cannot decide: taken on from its start, as at the hand-off)
+            w["nev"][fresh] -= 1
+            for i in np.flatnonzero(fresh):
+                self._resume(i, w, st, first, code, out, out_first)
+            code[w["ix"][~keep & (code[w["ix"]] != DONE)]] = ALONE
         metrics = self._metrics(out, out_first, code)
         code[(code == DONE) & ~self._result_checks(metrics, out, out_first)] = ALONE
         return metrics, code
 
+    def _resume(self, i, w, st, first, code, out, out_first) -> None:
+        """Member ``i`` of the working set, at the hand-off's event count, taken on from its
+        state by the single solve's own segments (:meth:`._solve._Chain.advance`, the peaks of
+        :meth:`~._solve._Chain.spans`, the model's transitions) instead of solved again from
+        t = 0 (a chain whose contacts chatter: hundreds of events), its record kept as
+        :meth:`_step` keeps it; :data:`DONE` in ``code``, its numbers in ``out`` and
+        ``out_first``. Left alone where anything is not plain (locks, a law status, no event,
+        a non-finite state, an unresolved impact, :data:`RESUME_EVENTS`): the single solve's
+        own numbers or message."""
+        j, N, K = int(w["ix"][i]), self.N, self.K
+        member = self.model.scene.with_values({q: float(a[j]) for q, a in self.values.items()})
+        model = type(self.model)(member)
+        parts = _transitions(model)
+        if isinstance(parts, LockTransitions):
+            return
+        chain = _Chain(model)
+        chain.parts = parts
+        disc = model.to_python([{key: a[i] for key, a in s.items()} for s in st])
+        t, y, nev = float(w["t"][i]), np.concatenate([w["x"][i], w["v"][i]]), int(w["nev"][i])
+        horizon, events = model.crash_horizon, []
+        try:
+            while not parts.is_over(y, disc, t, horizon):
+                go_on = nev < min(self.max_total, RESUME_EVENTS)
+                step = chain.advance(t, y, disc, horizon) if go_on else None
+                if step is None or step.event is None or not np.all(np.isfinite(step.y)):
+                    return
+                t, y = step.t, np.asarray(step.y, float)
+                new = [a if a is was else model.to_python([a])[0] for a, was in
+                       zip(parts.apply_event(step.event, t, y, disc, model.params), disc)]
+                touch = [[s["mode"] != MODE_OPEN for s in d[:K]] for d in (disc, new)]
+                was, now = np.array(touch)
+                events.append((t, y[N:2 * N], now & ~was, was & ~now))
+                disc, nev = new, nev + 1
+                if any(int(s["status"]) for s in disc[:K]):
+                    return
+        except SimulationError:
+            return
+        rec = {key: a[i:i + 1] for key, a in first.items()}
+        since, v_post = w["since"][i], w["v_post"][i]
+        for (t1, v1, closes, opens), (_, _, F, a) in zip(events, chain.spans()):
+            ongoing = _metrics.ongoing(rec, np)
+            rec = _metrics.fold_peaks(rec, F[None], a[None], ongoing, np)
+            rec = _metrics.event_update(rec, np.array([t1]), v1[None], closes[None],
+                                        opens[None], np)
+            if np.any(opens & ~_resolved(since, t1)):
+                return
+            since = np.where(closes, t1, np.where(opens, np.nan, since))
+            v_post = v1 if opens.any() else v_post
+        code[j] = DONE
+        out["t"][j], out["v"][j] = t, y[N:2 * N]
+        out["v_post"][j] = np.where(np.isnan(v_post), y[N:2 * N], v_post)
+        for key in ("dmax", "dperm", "ec", "er"):
+            out[key][j] = [s[key] for s in disc[:K]]
+        for key, a in rec.items():
+            out_first[key][j] = a[0]
+
     def _step(self, w, st, first):
-        """One segment and one event of every live member: ``(w, st, first, keep)``, ``keep``
-        False where a member goes to the single solve."""
+        """One segment and one event of every live member: ``(w, st, first, keep, fresh)``,
+        ``keep`` False where a member goes to the single solve, ``fresh`` where it is left at
+        its segment's start (its search undecided, its event count one too many)."""
         b, N, K = w["ix"].size, self.N, self.K
         ix = w["ix"]
         x0, v0 = w["x"], w["v"]
@@ -185,8 +269,8 @@ class _Batch:
         slope = S("s")
         force = S("fa") + slope * (D0 - S("da"))
         motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C)
-        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix)
         omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
+        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix, omega)
         limit = self.horizon[ix] - w["t"]
         with np.errstate(all="ignore"):
             start = start_times(g, tol, omega, limit)
@@ -196,6 +280,7 @@ class _Batch:
                 late_now &= g.each_at(np.where(start > 0, start, 0.0)) <= 0
             tau, which, undecided = earliest(g, armed, start, limit)
         keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
+        fresh = ~keep    # (left where their segment starts, untouched)
         tau = np.where(keep, tau, 0.0)
         x1, v1 = motion.state(tau)
         keep &= np.all(np.isfinite(x1) & np.isfinite(v1), axis=1)
@@ -208,7 +293,8 @@ class _Batch:
             # ends the segment; not where that rate stays on its surface, start NaN)
             rate_start = start[:, 2::3][r]
             monotone = (S("vm")[r] != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
-            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone)
+            peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone,
+                                        S("vm")[r] == 0, S("fa")[r], _bars(first, ongoing, r))
             keep[r[unsure]] = False
             F_pk = np.zeros((b, K))
             a_pk = np.zeros((b, N))
@@ -240,18 +326,23 @@ class _Batch:
         w["since"] = np.where(closes, t_now, np.where(opens, np.nan, w["since"]))
         sep = opens.any(axis=1)
         w["v_post"] = np.where(sep[:, None], v1, w["v_post"])
-        return w, st, first, keep
+        return w, st, first, keep, fresh
 
     # ------------------------------------------------------------------ pieces
-    def _event_functions(self, motion, st, D0, W0, x0, v0, ix):
+    def _event_functions(self, motion, st, D0, W0, x0, v0, ix, omega):
         """The event functions ``(Sums (b, 3K), armed (b, 3K), tolerance at the start)`` in the
-        model's event order (contact ``k``: lower end, upper end, closing rate)."""
+        model's event order (contact ``k``: lower end, upper end, closing rate); ``omega``
+        (b,) [1/s]: the start state's rate (:meth:`._solve._Chain._earliest`'s)."""
         b, K = D0.shape
         P = motion.P
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
         length = self.v_scale[ix] * self.t_scale[ix]
         tol_d = START_TOL * length + 16 * _EPS * np.max(np.abs(x0), axis=1)
-        tol_w = START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+        # (a rate's rounding includes the deformation's through the fastest mode, as the
+        # single solve's: a rounding-size k D at a touch would fire max deformation and reload
+        # at one instant, over and over, up to HANDOFF_EVENTS)
+        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+                 + omega * tol_d)
         c, alpha, gamma, armed, tol = [], [], [], [], []
         for k, s in enumerate(st):
             for kind in range(3):
@@ -272,7 +363,7 @@ class _Batch:
                  motion.kappa, motion.w)
         return g, np.stack(armed, axis=1), np.stack(tol, axis=1)
 
-    def _peaks(self, motion, slope, force, ix, r, tau, monotone):
+    def _peaks(self, motion, slope, force, ix, r, tau, monotone, unloads, top_force, bars):
         """Each contact's largest force and each vehicle's acceleration of largest magnitude
         (signed) over ``[0, τ]`` of members ``r``: ``(peaks (m, K + N), undecided (m,))`` (as
         :meth:`._solve._Chain._peaks`). The extrema are searched on the forces and on the
@@ -282,7 +373,16 @@ class _Batch:
         contact with no slope has a constant force, one loading all along (``monotone`` (m,
         K): its deformation rises up to the segment's end) a monotone one, and a vehicle
         pushed by one such force and a constant one a monotone acceleration; a member whose
-        functions are all such takes its extremes at the two ends."""
+        functions are all such takes its extremes at the two ends.
+
+        Nor where the value cannot change the first-impact record: ``bars`` (m, K + N - 2)
+        (:func:`_bars`), what a force or a middle vehicle's acceleration must exceed to be
+        folded into it (inf: not folded). A force lies in ``[0, U]``: ``U`` 0 open, the larger
+        end loading all along, ``top_force`` (m, K) on an unloading line (``unloads`` (m, K):
+        the line's top, ``(D_max, F_max)``, which the deformation stays below), unknown
+        otherwise; a middle vehicle's acceleration, the difference of two such forces over
+        its mass, is at most the larger ``U`` over its mass. A function whose bound is at most
+        its bar is taken at its ends (its extremes there or below the record)."""
         K, N = self.K, self.N
         P = motion.P[r]
         rows = slope[r][:, :, None] * P                                    # (m, K, N)
@@ -303,14 +403,19 @@ class _Batch:
         pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
         wild = (np.abs(inc) @ turns.T.astype(int)) > 0
         want = np.concatenate([turns, ((pushed > 1) | wild).T], axis=1)     # (m, K + N - 2)
-        search = want.any(axis=1)
         end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
+        bound = np.where(~loaded, 0.0, np.where(monotone, np.maximum(c[:, :K], end[:, :K]),
+                                                np.where(unloads, top_force, np.inf)))
+        near = np.abs(inc) > 0
+        middle = np.max(np.where(near[None], bound[:, None, :], 0.0), axis=2) / m[:, 1:N - 1]
+        want &= ~(np.concatenate([bound, middle], axis=1) <= bars)
+        search = want.any(axis=1)
         top, bottom = np.maximum(c, end), np.minimum(c, end)
         undecided = np.zeros(r.size, bool)
         if search.any():
             q = np.flatnonzero(search)
             top[q], bottom[q], undecided[q] = extreme_values(series.take(q), tau[q], largest,
-                                                             want[q])
+                                                             want[q], bars[q])
         signed = np.where(np.abs(top) >= np.abs(bottom), top, bottom)
         # (contact 0 pushes vehicle 0 back, contact K - 1 pushes vehicle N - 1 forward)
         return np.concatenate([top[:, :K], -signed[:, :1] / m[:, :1], signed[:, K:],

@@ -151,6 +151,14 @@ class Sums:
         term = np.where(k != 0, np.abs(self.alpha * k) * s_max, 0.0)
         return msum(term) + msum(np.abs(self.gamma))
 
+    @staticmethod
+    def joined(parts) -> "Sums":
+        """The functions of ``parts`` (Sums on as many modes) one after the other."""
+        if len(parts) == 1:
+            return parts[0]
+        return Sums(*(np.concatenate([getattr(q, name) for q in parts])
+                      for name in ("c", "alpha", "gamma", "kappa", "w")))
+
     def take(self, rows, cols=None) -> "Sums":
         """The functions of members ``rows`` (and, per member, ``cols``)."""
         if cols is None:

@@ -4,11 +4,11 @@
 Each member's functions (:class:`~._batch_modes.Sums`) are sampled together on windows of
 steps of ``1 / (PER_RADIAN ω)`` (``ω`` its fastest mode; :data:`WINDOW` / 2 steps first, twice
 as many each window after, up to 64 :data:`WINDOW`), every member on its own window, all members
-in one NumPy evaluation. Between two samples ``Δ`` apart a function differs
-from its chord by at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples
-both exceed that holds no zero; the first interval of a member that does not is either a sign
-change (a bracket, refined to a few ulps by Newton's method kept inside it, all brackets at
-once) or is sampled again :data:`WINDOW` times finer, until narrower than :data:`._roots.TOUCH`
+in one NumPy evaluation. Between two samples ``Δ`` apart a function differs from its chord by
+at most ``B Δ²/8`` (``B`` the bound on ``|g''|``), so an interval whose samples both exceed
+that holds no zero; the first interval of a member that does not is either a sign change (a
+bracket, refined to a few ulps by Newton's method kept inside it, every window's brackets
+at once) or is sampled again :data:`WINDOW` times finer, until narrower than :data:`._roots.TOUCH`
 of its time, where it is a touch (as the single solve decides). A member whose intervals the
 bound still cannot clear after :data:`LEVELS` finer samplings is handed back as *undecided*:
 the caller solves it alone, with :mod:`._roots`' own search.
@@ -126,32 +126,48 @@ def _earliest(g: Sums, search, start, limit):
     live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
     step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
     lo = np.zeros(b)
+    brackets = []
     for k in range(MAX_WINDOWS):
         if not live.size:
             break
         # (windows that double from half a window, up to 128 times the first: most events
         # lie within the first few samples, and a member whose event is far away takes few)
         count = (WINDOW // 2) << min(k, 7)
-        t_found, j_found, cleared, stuck = _window(g.take(live), B[live], start[live],
-                                                   g_start[live], lo[live], step[live],
-                                                   limit[live], search[live], count)
-        got = j_found >= 0
-        tau[live[got]], which[live[got]] = t_found[got], j_found[got]
+        got, cleared, stuck = _window(g.take(live), B[live], start[live], g_start[live],
+                                      lo[live], step[live], limit[live], search[live], count,
+                                      brackets, live)
         undecided[live[stuck]] = True
         lo[live] = cleared
         live = live[~got & ~stuck & (cleared < limit[live])]
     undecided[live] = True
+    if brackets:
+        # every window's brackets refined at once (each on its own: the same zeros as one
+        # window at a time, in one pass of Newton's method)
+        mem, jj, ta, tb, fa, fb = (np.concatenate(x) for x in zip(*(q[:6] for q in brackets)))
+        h = Sums.joined([q[6] for q in brackets])
+        order = np.argsort(mem, kind="stable")
+        root = refine(h, ta, tb, fa, fb)[order]
+        mem, jj = mem[order], jj[order]
+        # (each member's earliest zero, the first function of it)
+        starts = np.flatnonzero(np.r_[True, mem[1:] != mem[:-1]])
+        best = np.minimum.reduceat(root, starts)
+        jbest = np.minimum.reduceat(
+            np.where(root == np.repeat(best, np.diff(np.r_[starts, mem.size])), jj, F_BIG),
+            starts)
+        tau[mem[starts]], which[mem[starts]] = best, jbest
     return tau, which, undecided
 
 
-def _window(g, B, start, g_start, lo, step, limit, search, count):
-    """One window of each member (see :func:`earliest`): ``(τ, function or -1, where the
+
+def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, members):
+    """One window of each member (see :func:`earliest`): ``(found (a bracket), where the
     search has cleared up to, stuck)``, over ``count`` steps. The first interval a member's
     bound cannot clear is sampled again :data:`WINDOW` times finer (up to :data:`LEVELS`
-    times)."""
+    times). The brackets found are appended to ``brackets``: ``(member (its entry of
+    ``members``), function, ends, values at the ends, the function (Sums))``, for
+    :func:`refine`."""
     n = g.c.shape[0]
-    found_t = np.full(n, np.nan)
-    found_j = np.full(n, -1)
+    found = np.zeros(n, bool)
     stuck = np.zeros(n, bool)
     a, h, end = lo, step, np.minimum(lo + count * step, limit)
     cleared = end.copy()
@@ -199,16 +215,10 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
             rr, jj = np.nonzero(cr[r])
             mem = r[rr]
             ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
-            root = refine(gg.take(mem, jj), ta, tt[mem, ic[mem] + 1], left[mem, jj, ic[mem]],
-                          right[mem, jj, ic[mem]])
-            # (each member's earliest root, the first function of it: ``mem`` is sorted, and
-            # every member of ``r`` has a bracket)
-            starts = np.flatnonzero(np.r_[True, mem[1:] != mem[:-1]])
-            best = np.minimum.reduceat(root, starts)
-            jbest = np.minimum.reduceat(
-                np.where(root == np.repeat(best, np.diff(np.r_[starts, mem.size])), jj, F_BIG),
-                starts)
-            found_t[todo[r]], found_j[todo[r]] = best, jbest
+            brackets.append((members[todo[mem]], jj, ta, tt[mem, ic[mem] + 1],
+                             left[mem, jj, ic[mem]], right[mem, jj, ic[mem]],
+                             gg.take(mem, jj)))
+            found[todo[r]] = True
         if level == LEVELS:
             stuck[todo[deeper]] = True
             break
@@ -220,7 +230,7 @@ def _window(g, B, start, g_start, lo, step, limit, search, count):
         steps = WINDOW
         h = (end - a) / steps
         todo = todo[sel]
-    return found_t, found_j, cleared, stuck
+    return found, cleared, stuck
 
 
 F_BIG = np.iinfo(np.int64).max
@@ -359,7 +369,7 @@ FLAT = 1e-14
 PEAK_LEVELS = 6
 
 
-def extreme_values(g: Sums, T, largest, turns=None):
+def extreme_values(g: Sums, T, largest, turns=None, bars=None):
     """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
     values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
     ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
@@ -384,7 +394,7 @@ def extreme_values(g: Sums, T, largest, turns=None):
     top = np.full((b, F), -np.inf)
     bottom = np.full((b, F), np.inf)
     undecided = np.zeros(b, bool)
-    late = []
+    late, zeros = [], []
     # the intervals still to sample: member, start, end, step, level (0: the end is T), and
     # the pass one window at a time would sample it on (its age)
     r = np.arange(b)
@@ -425,12 +435,11 @@ def extreme_values(g: Sums, T, largest, turns=None):
                      + w[m, 0, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[m, j, i]))
             tm, bm = top[r[m], j], bottom[r[m], j]
             peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
+            if bars is not None:
+                peak = np.maximum(peak, bars[r[m], j])
             m, j, i = (x[~(reach < peak)] for x in (m, j, i))
-            roots = refine(dl.take(m, j), tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
-                           rtol=EXTREMUM_RTOL)
-            at = gl.take(m, j).each_at(roots[:, None])[:, 0]
-            np.fmax.at(top, (r[m], j), at)
-            np.fmin.at(bottom, (r[m], j), at)
+            zeros.append((r[m], j, tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
+                          dl.take(m, j), gl.take(m, j)))
         low = np.minimum(np.abs(a), np.abs(c))
         grazing = ~change & (low <= margin)
         if turns is not None:
@@ -462,6 +471,12 @@ def extreme_values(g: Sums, T, largest, turns=None):
         keep = ~late_pass
         r, lo, hi, h, level, age = r[keep], lo[keep], hi[keep], h[keep], level[keep], age[keep]
     undecided[r] = True
+    if zeros:    # (the derivative's zeros of every pass refined at once, each on its own)
+        m, j, ta, tb, fa, fb = (np.concatenate(x) for x in zip(*(q[:6] for q in zeros)))
+        roots = refine(Sums.joined([q[6] for q in zeros]), ta, tb, fa, fb, rtol=EXTREMUM_RTOL)
+        at = Sums.joined([q[7] for q in zeros]).each_at(roots[:, None])[:, 0]
+        np.fmax.at(top, (m, j), at)
+        np.fmin.at(bottom, (m, j), at)
     size = np.maximum(np.abs(top), np.abs(bottom))
     for m, j, excess in late:
         undecided[m[excess > FLAT * size[m, j]]] = True
