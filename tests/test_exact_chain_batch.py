@@ -402,22 +402,17 @@ def test_a_contact_pushed_through_soft_contacts_is_the_single_solve_member_by_me
     assert _differing(scene, values, exact_chain.solve_batch(HybridModel(scene), values)) == []
 
 
-@pytest.mark.parametrize("e", [pytest.param(WATCH_RESTITUTION, marks=pytest.mark.xfail(
-    strict=True, reason="known defect, not fixed: member 1's vehicle 3 peak acceleration in the "
-    "batch is 10.0222281049 ft/s², below the single solve's dense output (10.0222282230 at "
-    "t = 0.1968197 s) and its exact interior peak (10.0222283626, segment 0.1968165 to "
-    "0.1969142 s): 1.2e-8 of it low. The single solve's tolerance here is 100 times its "
-    "rounding response, which eigh's slow-mode error (2.3e-10) had inflated past this gap; "
-    "with the modes' eigenvalues to full accuracy it no longer hides it")), 0.9])
+@pytest.mark.parametrize("e", [WATCH_RESTITUTION, 0.9])
 def test_five_touching_cars_are_the_single_solve_member_by_member(e, monkeypatch):
     """Five cars at rest touching (test_exact_chain_locks.py's, every restitution ``e``: from
     WATCH_RESTITUTION up, none may lock) struck from behind: the vectorised path solves every
     member itself, its events the single solve's, every metric within 1e-10 of its scale of
     the single solve's. (A chain this graded, 1 to 700 lb and 3e3 to 1e9 lbf/ft, has modes
-    known to ``ε κ_max`` only: its slowest elastic mode, κ = 406.648 1/s², is 2.3e-10 off
-    in the single solve's eigensolve and 3.6e-11 in the batch's (against mpmath), which
-    parts their metrics by up to 2.3e-11 of their scale, beyond the 1e-12 and the data's
-    rounding response of :func:`_differing`. On the batch's old restart rule the contacts
+    that ``eigh`` knows to ``ε κ_max`` only: its slowest elastic mode, κ = 406.648 1/s², was
+    2.3e-10 off in the single solve's eigensolve and 3.6e-11 in the batch's (against mpmath),
+    which parted a peak acceleration by 1.2e-8 of its scale; both now take every eigenvalue
+    from the SVD of the factor, to rounding (tests/test_exact_chain_modes.py). On the batch's
+    old restart rule the contacts
     pushed shut closed late: at e = 0.9 the peak acceleration was 249 times its scale off the
     single solve's; at 0.05 the members chattered to the hand-off's event count.)"""
     alone = []

@@ -6,7 +6,8 @@ long segment behind a very stiff line.
 largest: a slow mode behind an unloading line 1e10 times stiffer than its contact was 1.1e-6 off,
 and a chain that spent 1.3 s pressed on such a line lost 3.7e-8 of its energy (the --hard run of
 test_exact_chain_locks.py drew it). The eigenvalues are now the squared singular values of the
-factor ``diag(√s) C M^{-1/2}``, which one-sided Jacobi gives to high relative accuracy.
+factor ``diag(√s) C M^{-1/2}`` (an SVD of its transpose, to near full relative accuracy), in
+the single solve and the batch alike.
 """
 
 from __future__ import annotations
@@ -75,3 +76,20 @@ def test_a_long_segment_behind_a_very_stiff_line_keeps_its_energy():
     assert energy_error(r) <= 1e-12      # (was 3.7e-8)
     assert momentum_error(r) <= 1e-14
     check_result(r)
+
+
+@pytest.mark.parametrize("m,slope", [([796.8, 604.4, 36.6], [100.0, 6.2e12]),
+                                     ([50.0, 900.0, 70.0, 400.0, 35.0], [1e3, 4e12, 2e2, 9e11])])
+def test_the_batch_takes_the_same_eigenvalues(m, slope):
+    """The batch's modes (stacked members) have the single solve's eigenvalues: the same SVD
+    of each member's factor (eigh's and its Rayleigh quotients parted them by 2e-10)."""
+    from lsc.solvers.exact_chain._batch_modes import BatchMotion
+
+    m, slope = np.asarray(m), np.asarray(slope)
+    C = deformation_map(m.size)
+    single = np.sort(Shape(m, slope, -C.T).modes.kappa)
+    stacked = np.repeat(m[None], 3, axis=0), np.repeat(slope[None], 3, axis=0)
+    zeros = np.zeros_like(stacked[0])
+    batch = BatchMotion(stacked[0], zeros, zeros, stacked[1], np.zeros_like(stacked[1]), C)
+    for kappa in batch.kappa:
+        assert np.array_equal(np.sort(kappa), single)
