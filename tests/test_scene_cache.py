@@ -70,3 +70,20 @@ def test_solving_a_dict_again_builds_its_model_anew(monkeypatch):
     a, b = lsc.solve(_scene()), lsc.solve(_scene())
     assert len(built) == 2 and built[0] is built[1]
     assert (a.delta_v == b.delta_v).all() and (a.peak_force == b.peak_force).all()
+
+
+def test_a_scene_kept_before_its_law_was_unregistered_is_refused_after():
+    """A dict naming a registered law, kept, is loaded again once the law is unregistered (and
+    refused), not returned from the cache: the key includes the registered laws (the toy law
+    of tests/test_extending.py, registered by one test and unregistered before the next,
+    was found by that file's order)."""
+    from test_extending import QuadraticDampingLaw, toy_scene
+    from lsc.laws import register_law, unregister_law
+
+    register_law(QuadraticDampingLaw)
+    try:
+        lsc.Scene.load(toy_scene())
+    finally:
+        unregister_law("toy")
+    with pytest.raises(lsc.SceneError, match='unknown contact law "toy"'):
+        lsc.Scene.load(toy_scene())

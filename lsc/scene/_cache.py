@@ -3,11 +3,12 @@
 validating it again.
 
 The key is the dict's pickle (every value with its type: ``1``, ``1.0`` and ``True`` are
-different inputs, one of them may be refused; equal pickles unpickle to equal contents) and the
-folder relative paths would be read from. A scene that may name a file (the text ``csv``
-anywhere in it: a table read from a CSV file) is not kept, as the file may change between two
-loads; nor is one that fails to load (its error is raised again every time), nor one that
-cannot be pickled.
+different inputs, one of them may be refused; equal pickles unpickle to equal contents), the
+folder relative paths would be read from, and the registered laws, vehicle effects and methods
+(a scene loaded before a law was unregistered is loaded again, and refused). A scene that may
+name a file (the text ``csv`` anywhere in it: a table read from a CSV file) is not kept, as the
+file may change between two loads; nor is one that fails to load (its error is raised again
+every time), nor one that cannot be pickled.
 """
 
 from __future__ import annotations
@@ -15,6 +16,10 @@ from __future__ import annotations
 import pickle
 import threading
 from collections import OrderedDict
+
+from ..effects import vehicle_effect_classes
+from ..laws import laws
+from ..solvers import methods
 
 __all__ = ["content_key", "cached", "keep", "clear", "SIZE"]
 
@@ -25,14 +30,18 @@ _lock = threading.Lock()
 
 
 def content_key(obj, base_dir) -> tuple | None:
-    """A hashable key equal for two scene dicts only when their contents, value types and
-    ``base_dir`` are; ``None`` where the scene cannot be kept (it may name a file, or cannot
-    be pickled)."""
+    """A hashable key equal for two scene dicts only when their contents, value types,
+    ``base_dir`` and what the loader accepts (the registered laws, vehicle effects and
+    methods: :func:`lsc.register_law` and the like change it) are; ``None`` where the scene
+    cannot be kept (it may name a file, or cannot be pickled)."""
     try:
         content = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:   # (anything a value's pickling raises: the loader then judges it)
         return None
-    return None if b"csv" in content else (str(base_dir), content)
+    if b"csv" in content:
+        return None
+    accepted = (tuple(laws().items()), tuple(vehicle_effect_classes().items()), methods())
+    return str(base_dir), accepted, content
 
 
 def cached(key):
