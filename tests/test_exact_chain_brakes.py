@@ -227,3 +227,22 @@ def test_auto_picks_exact_chain_for_braked_chains_and_exact_for_two_vehicles():
     pair = _scene(PRESSED["vehicles"][:2], PRESSED["contacts"][:1])
     assert lsc.solvers.pick(HybridModel(lsc.Scene.load(pair)), "auto") == "exact"
     assert lsc.solve(pair).method == "exact"
+
+
+def test_two_braked_cars_that_end_pressed_together_finish_in_exact():
+    """Two braked cars (the rear one at 1 ft/s, the front one stuck, the contact force below
+    its static friction): the rear car stops at the max deformation and the pair stays pressed,
+    a crash that is over (HybridModel.is_over). The two-vehicle exact backend (auto's pick)
+    asked the model only once every contact was open, and stopped at the event limit at
+    t = 0.0387 s; it now ends there as SciPy does, with the same events."""
+    scene = {"units": "US",
+             "vehicles": [{"mass": 100.0, "speed": 1.0, "brake": {"mu": 0.8}},
+                          {"mass": 100.0, "speed": 0.0, "brake": {"mu": 0.8}}],
+             "contacts": [{"loading": {"stiffness": 1000.0}, "unloading": {"restitution": 1.0}}]}
+    r = lsc.solve(scene)
+    ref = lsc.solve(scene, method="scipy", rtol=1e-12)
+    assert r.method == "exact"
+    assert [(e.kind, e.index) for e in r.events] == [(e.kind, e.index) for e in ref.events]
+    assert [e.kind for e in r.events][-2:] == ["max_deformation", "stop"]
+    assert abs(r.events[-1].time - ref.events[-1].time) <= 1e-9
+    assert np.array_equal(r.v_final, [0.0, 0.0])

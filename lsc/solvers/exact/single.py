@@ -63,10 +63,11 @@ class _ScalarTransitions:
         return start[0].copy(), [dict(st) for st in start[1]]
 
     def is_over(self, y, disc, t=0.0, horizon=None):
-        """The model's :meth:`~lsc.model.HybridModel.is_over`, asked only once every contact is
-        open (never over before: its first condition), so not on the NumPy arrays of every
-        segment's end."""
-        if any(st["mode"] for st in disc[: self.K]):
+        """The model's :meth:`~lsc.model.HybridModel.is_over`, asked without brakes only once
+        every contact is open (never over before: its first condition), so not on the NumPy
+        arrays of every segment's end; with brakes every time (a crash may end with a contact
+        shut between two stuck vehicles)."""
+        if not self._model.brakes and any(st["mode"] for st in disc[: self.K]):
             return False
         return self._model.is_over(y, disc, t, horizon)
 

@@ -19,22 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exact.single import _ScalarTransitions
 from ._modes import Series
 
-__all__ = ["Brakes", "BrakedTransitions"]
+__all__ = ["Brakes"]
 
 _EPS = float(np.finfo(float).eps)
-
-
-class BrakedTransitions(_ScalarTransitions):
-    """:class:`~lsc.solvers.exact.single._ScalarTransitions` whose crash-over test is the
-    model's own: with brakes a crash may end with a contact shut between two stuck vehicles
-    (:meth:`lsc.model.HybridModel.is_over`), which the scalar shortcut (never over while a
-    contact is closed) would never end."""
-
-    def is_over(self, y, disc, t=0.0, horizon=None):
-        return self._model.is_over(y, disc, t, horizon)
 
 
 class Brakes:

@@ -22,7 +22,7 @@ from ..segments import Step, build_result, run_segments
 from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _locks
-from ._brakes import Brakes, BrakedTransitions
+from ._brakes import Brakes
 from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
@@ -79,7 +79,7 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    fast = (BrakedTransitions if model.brakes else _ScalarTransitions)(model)
+    fast = _ScalarTransitions(model)
     for pp, law in zip(fast._pp, model.laws):
         pp["wres"] = float(law.params["wres"])
     # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions;
