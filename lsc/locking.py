@@ -69,7 +69,7 @@ from .model import HybridModel
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
            "LOCK_RESTITUTION", "FEATURE", "lock_features", "locking_model", "can_lock", "may_lock",
            "warning", "lock_warnings", "lock_members", "clusters", "cluster_forces",
-           "locked_forces", "hold_force", "pressed", "PRESS_TOL"]
+           "locked_forces", "pressed", "PRESS_TOL"]
 
 #: Closings while pressed after which a contact locks at its next turning point (the module).
 CHATTER_CLOSINGS = 8
@@ -129,22 +129,14 @@ def lock_features(model) -> frozenset[str]:
     return frozenset()
 
 
-def hold_force(model, y, disc, p, mask, k, xp=np):
-    """The force [force] contact ``k`` carries with the contacts where ``mask`` (K booleans)
-    is true locked (the laws' forces of the others in discrete state ``disc``,
-    :func:`locked_forces`)."""
-    F = HybridModel.forces(model, y, disc, p, xp)
-    rows, _ = locked_forces(F, p["m"], mask, model.K, xp)
-    return rows[k]
-
-
 def pressed(model, y, disc, p, mask, xp=np) -> tuple[list, list]:
     """``(rows, pressed)``: the forces (K) [force] the contacts carry with those where
-    ``mask`` is true locked (:func:`hold_force`), and whether each is pressed: its force
-    positive, or within :data:`PRESS_TOL` of the force scale of zero and rising (the laws'
-    slopes times the closing rates, by the same linear cluster law): a pair whose pusher
-    touches at this instant is pressed from it on, though its force starts from zero (an
-    exact backend sees that instant; an integrator, a moment later, a small positive force)."""
+    ``mask`` (K booleans) is true locked (the laws' forces of the others in discrete state
+    ``disc``, :func:`locked_forces`), and whether each is pressed: its force positive, or
+    within :data:`PRESS_TOL` of the force scale of zero and rising (the laws' slopes times the
+    closing rates, by the same cluster law): a pair whose pusher touches now is pressed,
+    though its force starts from zero (which an exact backend sees; an integrator sees the
+    touch a moment later, the force positive)."""
     F = HybridModel.forces(model, y, disc, p, xp)
     _, Dd = model.deformation(y, p, xp)
     rate = xp.stack([xp.asarray(disc[j]["s"], float) * Dd[j] for j in range(model.K)])
