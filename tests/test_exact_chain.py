@@ -118,7 +118,7 @@ def _hold_to_reference(scene, r, events, ref, floor=None):
 
 
 @settings(max_examples=MODAL_CASES)
-@given(chains(tables=True, e_min=0.2, pushed_shut=False))
+@given(chains(tables=True, e_min=1e-3, pushed_shut=False))
 def test_chains_match_the_independent_modal_solution(scene):
     """exact-chain against the independent modal solution (tests/hard/modal_chain.py, every
     metric from its own trajectory: tests/hard/modal_metrics.py) on random chains with
@@ -126,9 +126,13 @@ def test_chains_match_the_independent_modal_solution(scene):
     of lsc.result.METRICS to 1e-10 of its scale. (Not with contacts touching at no closing
     speed: the reference moves a function that starts on its surface off it by a fixed amount,
     which rounding in its modal sums can exceed, and closes such contacts late or spuriously;
-    nor with near-plastic contacts that a neighbour pushes shut over and over, which lock:
-    SciPy is the reference for those, below. Braked chains: test_braked_chains_match_...)"""
+    nor where a near-plastic pair that a neighbour pushes shut over and over locks, a model
+    the reference does not have: SciPy is the reference for those, tests/
+    test_exact_chain_locks.py. Restitutions from 1e-3: below that the reference's unloading
+    lines overflow. Braked chains: test_braked_chains_match_...)"""
     r = lsc.solve(scene, method="exact-chain")
+    if any("lock" in e.kind.split("+") for e in r.events):
+        reject()
     events, ref = reference(scene)
     _hold_to_reference(scene, r, events, ref)
     if energy_error(r) > 1e-12:
