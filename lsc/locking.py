@@ -84,9 +84,9 @@ WATCH_RESTITUTION = 0.05
 #: its contact (the plain law chatters). From 1e-5 on, only a counted chatter locks.
 LOCK_RESTITUTION = 1e-5
 
-#: A force within this fraction of the force scale of zero is pressed where it rises
-#: (:func:`pressed`).
-PRESS_TOL = 1e-13
+#: A force within this fraction of the force scale (and its positions' rounding) of zero is
+#: pressed where it rises (:func:`pressed`).
+PRESS_TOL, _EPS = 1e-13, float(np.finfo(float).eps)
 
 #: The model feature of a scene whose pairs may lock (:func:`lock_features`).
 FEATURE = "contact:lock"
@@ -131,18 +131,19 @@ def lock_features(model) -> frozenset[str]:
 
 def pressed(model, y, disc, p, mask, xp=np) -> tuple[list, list]:
     """``(rows, pressed)``: the forces (K) [force] the contacts carry with those where
-    ``mask`` (K booleans) is true locked (the laws' forces of the others in discrete state
-    ``disc``, :func:`locked_forces`), and whether each is pressed: its force positive, or
-    within :data:`PRESS_TOL` of the force scale of zero and rising (the laws' slopes times the
-    closing rates, by the same cluster law): a pair whose pusher touches now is pressed,
-    though its force starts from zero (which an exact backend sees; an integrator sees the
-    touch a moment later, the force positive)."""
+    ``mask`` (K booleans) is locked (:func:`locked_forces` of the laws' forces in ``disc``),
+    and whether each is pressed: its force positive, or within rounding (:data:`PRESS_TOL` of
+    the force scale, and 16 ulps of the positions through the slopes: a pusher at its set on
+    a near-plastic line 1.5e14 lbf/ft stiff carries 3e-3 lbf of either sign) of zero and
+    rising (the slopes times the closing rates, by the same cluster law): a pair whose pusher
+    touches now is pressed, which an exact backend sees (an integrator, a moment later)."""
     F = HybridModel.forces(model, y, disc, p, xp)
     _, Dd = model.deformation(y, p, xp)
-    rate = xp.stack([xp.asarray(disc[j]["s"], float) * Dd[j] for j in range(model.K)])
+    s = xp.stack([xp.asarray(disc[j]["s"], float) for j in range(model.K)])
     rows, _ = locked_forces(F, p["m"], mask, model.K, xp)
-    rates, _ = locked_forces(rate, p["m"], mask, model.K, xp)
-    tol = PRESS_TOL * model.force_scale(p, xp)
+    rates, _ = locked_forces(s * Dd, p["m"], mask, model.K, xp)
+    tol = PRESS_TOL * model.force_scale(p, xp) + 16 * _EPS * xp.max(xp.abs(
+        y[: model.N])) * xp.sum(xp.abs(s))
     return rows, [(f > 0.0) | ((f > -tol) & (r > 0.0)) for f, r in zip(rows, rates)]
 
 

@@ -478,3 +478,40 @@ def test_a_narrow_line_beside_a_locked_pair_is_left_by_the_lock_rule_s_press():
     ref = lsc.solve(NARROW_BESIDE_A_LOCK, method="scipy", rtol=1e-10)
     e = NARROW_BESIDE_A_LOCK["contacts"][3]["unloading"]["restitution"]
     assert np.max(np.abs(r.v_final - ref.v_final)) <= e * closing_scale(r.scene)
+
+
+#: scripts/bench_chain.py --chatter 60 --seed 5, chain 38: a plastic pair (contact 1, e = 0)
+#: is pushed shut at the instant its rear neighbour (contact 0, e = 4.5e-4) closes at its
+#: permanent set, on an unloading line 1.5e14 lbf/ft stiff. That neighbour's force is zero to
+#: the rounding of the positions through that slope, 3e-3 lbf of either sign (-3e-3 here):
+#: the press was judged on 1e-13 of the force scale alone, the pair not locked, and it closed
+#: and separated at one instant until the event limit.
+PUSHED_BY_A_STIFF_LINE = {
+    "units": "US",
+    "contacts": [
+        {"loading": {"table": [[0.0, 0.0], [0.033748498268443, 1048495.0423097702],
+                               [0.067496996536886, 1048495.0423097702],
+                               [1000.0, 310680070112.4812]]},
+         "unloading": {"restitution": 0.00045110757194737365}, "gap": 0.0},
+        {"loading": {"stiffness": 29011274.84650355}, "unloading": {"restitution": 0.0},
+         "gap": 0.2744943916662809},
+        {"loading": {"stiffness": 17420.922449058424},
+         "unloading": {"restitution": 0.02314175108859966}, "gap": 0.0}],
+    "vehicles": [{"mass": 200.4316463651566, "speed": 0.17591878614744177},
+                 {"mass": 132.1478337057707, "speed": 0.010083590765092465},
+                 {"mass": 114.87913663844314, "speed": 0.010083590765092465},
+                 {"mass": 4.18655186733776, "speed": 0.0}]}
+
+
+def test_a_press_within_the_rounding_of_a_stiff_line_locks():
+    """The press is judged within the forces' rounding, the positions' through the slopes
+    (lsc.locking.pressed, and the lock's release functions the same): exact-chain locks the
+    pair and finishes with SciPy's 39 events (those at one instant in the order rounding
+    gives them) and final speeds."""
+    r = lsc.solve(PUSHED_BY_A_STIFF_LINE, max_events=FEW_EVENTS)
+    ref = lsc.solve(PUSHED_BY_A_STIFF_LINE, method="scipy", rtol=1e-10, max_events=FEW_EVENTS)
+    assert r.method == "exact-chain" and (1, 2.74288) in [(k, round(t, 5)) for k, t in _locks(r)]
+    assert sorted(_events(r)) == sorted(_events(ref))
+    assert np.max(np.abs(r.v_final - ref.v_final)) <= 1e-8 * closing_scale(r.scene)
+    check_result(r)
+    assert momentum_error(r) <= 1e-14

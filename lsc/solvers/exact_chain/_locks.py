@@ -150,7 +150,12 @@ def event_function(chain, motion, disc, k: int, which: int, force, W0, tol_w, st
     shape = motion.shape
     row = (shape.H[k] * np.asarray([float(st["s"]) for st in disc[: chain.K]])) @ shape.P
     c = float(shape.H[k] @ force)
-    tol = start_tol * float(chain.model.force_scale()) + 16 * np.finfo(float).eps * abs(c)
+    # (the rounding of the forces: a few ulps of c, and the positions' through the slopes, as
+    # lsc.locking.pressed judges a press: a pusher at its permanent set on a near-plastic line
+    # 1.5e14 lbf/ft stiff carries 3e-3 lbf of either sign)
+    slopes = sum(abs(float(st["s"])) for st in disc[: chain.K])
+    tol = start_tol * float(chain.model.force_scale()) + 16 * np.finfo(float).eps * (
+        abs(c) + float(np.max(np.abs(motion.x0))) * slopes)
     if which == 0:
         return Series(c, row * motion.a, row * motion.b, motion.modes), tol
     top = float(disc[chain.K + k]["ftop"])
