@@ -132,10 +132,13 @@ def metric_scale(r, name):
 def rounding_response(scene, r, ref=None):
     """How far exact-chain's event times [s] and each metric (name -> relative change, as
     :func:`metric_errors`; "energy": the balance's change) move when the rear car's speed
-    moves by a relative 1e-14 (inf where the events change); with the reference's metrics
-    ``ref``, plus how far the reference's move."""
+    moves by a relative 1e-14 (inf where the events change; a rear car at rest: by 1e-14 of
+    the fastest car's speed, else nothing would move); with the reference's metrics ``ref``,
+    plus how far the reference's move."""
     moved = copy.deepcopy(scene)
-    moved["vehicles"][0]["speed"] *= 1 + 1e-14
+    v0 = moved["vehicles"][0]["speed"]
+    moved["vehicles"][0]["speed"] = v0 * (1 + 1e-14) if v0 else \
+        1e-14 * max(abs(v["speed"]) for v in moved["vehicles"])
     r2 = lsc.solve(moved, method="exact-chain")
     closing = np.array([np.nan if m is None else m.closing_speed for m in
                         [next((i for i in r.impacts if i.contact == k), None)
