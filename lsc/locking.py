@@ -63,7 +63,8 @@ import numpy as np
 
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .laws.hysteresis import _lazy
-from .lock_law import cluster_forces, clusters, if_, locked_forces, none, not_, pick
+from .lock_law import (PRESS_TOL, cluster_forces, clusters, force_rounding, if_,
+                       locked_forces, none, not_, pick)
 from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
@@ -83,10 +84,6 @@ WATCH_RESTITUTION = 0.05
 #: the integrators do not resolve, and a pair pressed on it rings over 1e5 times faster than
 #: its contact (the plain law chatters). From 1e-5 on, only a counted chatter locks.
 LOCK_RESTITUTION = 1e-5
-
-#: A force within this fraction of the force scale (and its positions' rounding) of zero is
-#: pressed where it rises (:func:`pressed`).
-PRESS_TOL, _EPS = 1e-13, float(np.finfo(float).eps)
 
 #: The model feature of a scene whose pairs may lock (:func:`lock_features`).
 FEATURE = "contact:lock"
@@ -132,18 +129,16 @@ def lock_features(model) -> frozenset[str]:
 def pressed(model, y, disc, p, mask, xp=np) -> tuple[list, list]:
     """``(rows, pressed)``: the forces (K) [force] the contacts carry with those where
     ``mask`` (K booleans) is locked (:func:`locked_forces` of the laws' forces in ``disc``),
-    and whether each is pressed: its force positive, or within rounding (:data:`PRESS_TOL` of
-    the force scale, and 16 ulps of the positions through the slopes: a pusher at its set on
-    a near-plastic line 1.5e14 lbf/ft stiff carries 3e-3 lbf of either sign) of zero and
-    rising (the slopes times the closing rates, by the same cluster law): a pair whose pusher
-    touches now is pressed, which an exact backend sees (an integrator, a moment later)."""
+    and whether each is pressed: its force positive, or within its rounding of zero
+    (:func:`~lsc.lock_law.force_rounding`) and rising (the slopes times the closing rates, by
+    the same cluster law): a pair whose pusher touches now is pressed, which an exact backend
+    sees (an integrator, a moment later)."""
     F = HybridModel.forces(model, y, disc, p, xp)
     _, Dd = model.deformation(y, p, xp)
     s = xp.stack([xp.asarray(disc[j]["s"], float) for j in range(model.K)])
     rows, _ = locked_forces(F, p["m"], mask, model.K, xp)
     rates, _ = locked_forces(s * Dd, p["m"], mask, model.K, xp)
-    tol = PRESS_TOL * model.force_scale(p, xp) + 16 * _EPS * xp.max(xp.abs(
-        y[: model.N])) * xp.sum(xp.abs(s))
+    tol = force_rounding(model.force_scale(p, xp), y[: model.N], s, xp)
     return rows, [(f > 0.0) | ((f > -tol) & (r > 0.0)) for f, r in zip(rows, rates)]
 
 

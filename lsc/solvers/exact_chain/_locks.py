@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...lock_law import force_rounding
 from ...locking import cluster_forces, clusters
 from ._modes import Motion, Series, Shape, deformation_map
 
@@ -140,22 +141,20 @@ def motion(chain, x0, v0, slope, force, lock) -> Motion:
     return Motion(chain.m, x0, v0, slope, force, chain.incidence, _shape(chain, slope, lock))
 
 
-def event_function(chain, motion, disc, k: int, which: int, force, W0, tol_w, start_tol):
+def event_function(chain, motion, disc, k: int, which: int, force, W0, tol_w):
     """``(Series, tolerance at the start)`` of lock ``k``'s event ``which`` (0: its force
     through zero, 1: through ``F_top``, 2: the closing rate through zero, the turning point a
-    watch waits for; each crossing downward, :class:`lsc.locking.LockPart`); ``start_tol``: the
-    fraction of the force scale within which a force function starts on its surface."""
+    watch waits for; each crossing downward, :class:`lsc.locking.LockPart`); a force function
+    starts on its surface within the rounding :func:`lsc.lock_law.force_rounding` gives it."""
     if which == 2:
         return motion.closing_rate(k, W0[k]), tol_w
     shape = motion.shape
     row = (shape.H[k] * np.asarray([float(st["s"]) for st in disc[: chain.K]])) @ shape.P
     c = float(shape.H[k] @ force)
-    # (the rounding of the forces: a few ulps of c, and the positions' through the slopes, as
-    # lsc.locking.pressed judges a press: a pusher at its permanent set on a near-plastic line
-    # 1.5e14 lbf/ft stiff carries 3e-3 lbf of either sign)
-    slopes = sum(abs(float(st["s"])) for st in disc[: chain.K])
-    tol = start_tol * float(chain.model.force_scale()) + 16 * np.finfo(float).eps * (
-        abs(c) + float(np.max(np.abs(motion.x0))) * slopes)
+    # (the rounding of the forces as lsc.locking.pressed judges a press, and a few ulps of c)
+    slopes = np.array([float(st["s"]) for st in disc[: chain.K]])
+    tol = float(force_rounding(float(chain.model.force_scale()), motion.x0, slopes)) \
+        + 16 * np.finfo(float).eps * abs(c)
     if which == 0:
         return Series(c, row * motion.a, row * motion.b, motion.modes), tol
     top = float(disc[chain.K + k]["ftop"])

@@ -208,7 +208,7 @@ class _Chain:
         # force k tol_d drives the rate's derivatives as ω tol_d does its value)
         tol_w = START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist())) \
             + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
-        out = []
+        out, leaves = [], {}   # (leaves: each narrow line's way out, judged once)
         for i in self.parts.active_events(disc):
             k, which = self.parts.events[i]
             st = disc[k]
@@ -219,18 +219,18 @@ class _Chain:
                 continue
             if k >= self.K:    # a lock's (._locks): its force's releases, a watched turn
                 out.append((i, *_locks.event_function(self, motion, disc, k - self.K, which,
-                                                      force, W0, tol_w, START_TOL)))
+                                                      force, W0, tol_w)))
+                continue
+            if which == 2:     # closing rate through zero while loading
+                out.append((i, motion.closing_rate(k, W0[k]), tol_w))
                 continue
             if which == 0:     # the piece's lower end reached going down: (D - da) + wl
-                g, tol = motion.deformation(k, (D0[k] - st["da"]) + st["wl"]), tol_d
-                if self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w) == 0:
-                    tol = NOW
-            elif which == 1:   # its upper end reached going up: hi - D
-                g, tol = motion.deformation(k, st["hi"] - D0[k], -1.0), tol_d
-                if self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w) == 1:
-                    tol = NOW
-            else:              # closing rate through zero while loading
-                g, tol = motion.closing_rate(k, W0[k]), tol_w
+                g = motion.deformation(k, (D0[k] - st["da"]) + st["wl"])
+            else:              # its upper end reached going up: hi - D
+                g = motion.deformation(k, st["hi"] - D0[k], -1.0)
+            if k not in leaves:
+                leaves[k] = self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w)
+            tol = NOW if leaves[k] == which else tol_d
             out.append((i, g, tol))
         return out
 
@@ -250,8 +250,8 @@ class _Chain:
         if st["mode"] != MODE_UNLOADING or st["hi"] - st["lo"] > tol_d or abs(W0[k]) > tol_w:
             return None
         model = getattr(self.parts, "_locking", self.model)   # (with the locks held)
-        mask = [j == k or bool(_locks.locked(self.parts, disc) and j in
-                               _locks.locked(self.parts, disc)) for j in range(self.K)]
+        locked = _locks.locked(self.parts, disc)
+        mask = [j == k or j in locked for j in range(self.K)]
         _, press = pressed(model, np.concatenate([x0, v0]), disc, model.params, mask)
         return 1 if press[k] else 0
 
