@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import lsc
 from lsc.solvers.exact_chain._modes import Shape, deformation_map
@@ -69,3 +70,48 @@ def test_a_soft_pair_beside_a_far_stiffer_line_finishes_as_scipy():
     # at its start (e = 9e-8: e times the closing speed, 38 ft/s)
     e2, closing2 = 8.952366654133816e-08, 96.12099195024933 - 57.94899651286394
     assert np.max(np.abs(exact.delta_v - ref.delta_v)) <= 2 * e2 * closing2
+
+
+#: bench_chain.py --chatter 60 --seed 5, chain 46: contact 1 (e = 8.6e-6) locks, contact 0 (a
+#: table, e = 1.3e-7) reaches its maximum 0.27 s later on a line 1.3e-14 ft wide; contact 1's
+#: release on its own line, 1.4e-13 ft wide, kicks car 1 back at 3.1e-6 ft/s onto contact 0.
+SEED5_CHAIN46 = {
+    "units": "US",
+    "contacts": [
+        {"loading": {"table": [[0.0, 0.0], [0.3819145534582387, 77.7936027722513],
+                               [0.7638291069164774, 77.7936027722513],
+                               [1000.0, 2037015.1678879296]]},
+         "unloading": {"restitution": 1.3344309336111413e-07}, "gap": 0.006674207250984348},
+        {"loading": {"stiffness": 239771011.5406966},
+         "unloading": {"restitution": 8.643541087036972e-06}, "gap": 0.006674207250984348}],
+    "vehicles": [{"mass": 21.578787168416802, "speed": 61.16633923195393},
+                 {"mass": 377.6877164230082, "speed": 54.811778467873204},
+                 {"mass": 22.59831112662235, "speed": 48.45721770379248}]}
+
+
+def test_a_pair_closing_faster_than_its_narrow_line_returns_goes_over_its_top():
+    # The pair closes again at W = 3.1e-6 ft/s onto its rebound line (e² E_c = 8e-12 ft lbf of
+    # elastic energy, 1.3e-14 ft wide: narrower than exact-chain resolves at its start); its
+    # closing energy μ W² / 2 = 1e-10 ft lbf is 12 times that: it reloads past D_max, where
+    # F_max stops it in μ W / F_max. It looped closing and separating at one instant to the
+    # event limit (the line was left apart at once).
+    m = np.array([v["mass"] for v in SEED5_CHAIN46["vehicles"]])
+    exact = lsc.solve(SEED5_CHAIN46, method="exact-chain")
+    kinds = [(e.kind, e.index) for e in exact.events]
+    assert ("reload_past_max", 0) in kinds
+    again = exact.impacts[2]
+    assert again.contact == 0 and exact.impacts[0].contact == 0
+    first = exact.impacts[0]
+    mu = m[0] * m[1] / (m[0] + m[1])
+    W, F_max = again.closing_speed, first.peak_force
+    line = 2 * 1.3344309336111413e-07 ** 2 * exact.impacts[0].max_deformation  # (≥ its width)
+    assert mu * W ** 2 > F_max * line
+    assert again.t_end - again.t_start == pytest.approx(mu * W / F_max, rel=1e-3)
+    # against SciPy at rtol 1e-12 (which follows the line as a spring: its bounce): the first
+    # impacts alike; the final speeds within twice that closing speed (SciPy returns it, the
+    # reload keeps it, its new rebound below resolution dropped)
+    ref = lsc.solve(SEED5_CHAIN46, method="scipy", rtol=1e-12)
+    assert np.max(np.abs(exact.delta_v - ref.delta_v)) <= 2 * W
+    assert np.max(np.abs(exact.v_final - ref.v_final)) <= 2 * W
+    assert abs(m @ exact.v_final - m @ np.array([v["speed"] for v in
+                                                  SEED5_CHAIN46["vehicles"]])) <= 1e-14 * m @ exact.v_final

@@ -244,16 +244,29 @@ class _Chain:
         them: it cannot be followed. The pair leaves it the way its neighbours push it: over
         its top (reloading past ``D_max``) where they press it together (the force it would
         carry held rigid, by the lock rule's own measure, :func:`lsc.locking.pressed`:
-        positive, or zero and rising, a pusher that touches now), else apart (it separates,
-        as the law's instant rule does below :data:`~lsc.contact.REBOUND_RESOLUTION`; the
-        rebound's ringing is dropped)."""
+        positive, or zero and rising, a pusher that touches now) or where it closes faster
+        than the line can stop it (``μ Ḋ² > s wl²``, ``μ`` the two sides' reduced mass with
+        the clusters locked to them: its closing energy above the line's elastic energy), else
+        apart (it separates, as the law's instant rule does below
+        :data:`~lsc.contact.REBOUND_RESOLUTION`; the rebound's ringing is dropped)."""
         if st["mode"] != MODE_UNLOADING or st["hi"] - st["lo"] > tol_d or abs(W0[k]) > tol_w:
             return None
         model = getattr(self.parts, "_locking", self.model)   # (with the locks held)
         locked = _locks.locked(self.parts, disc)
         mask = [j == k or j in locked for j in range(self.K)]
         _, press = pressed(model, np.concatenate([x0, v0]), disc, model.params, mask)
-        return 1 if press[k] else 0
+        if press[k]:
+            return 1
+        # (closing faster than the line can stop: its kinetic energy of closing, the two sides
+        # with the clusters locked to them, above the line's elastic energy s wl² / 2)
+        rear, front = k, k + 1
+        while rear > 0 and rear - 1 in locked:
+            rear -= 1
+        while front < self.K and front in locked:
+            front += 1
+        m_rear, m_front = self.m[rear: k + 1].sum(), self.m[k + 1: front + 1].sum()
+        kinetic = m_rear * m_front / (m_rear + m_front) * W0[k] * abs(W0[k])
+        return 1 if kinetic > float(st["s"]) * float(st["wl"]) ** 2 else 0
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
