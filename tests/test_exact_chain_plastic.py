@@ -10,6 +10,9 @@
 
 from __future__ import annotations
 
+import copy
+import math
+
 import numpy as np
 import pytest
 
@@ -113,5 +116,37 @@ def test_a_pair_closing_faster_than_its_narrow_line_returns_goes_over_its_top():
     ref = lsc.solve(SEED5_CHAIN46, method="scipy", rtol=1e-12)
     assert np.max(np.abs(exact.delta_v - ref.delta_v)) <= 2 * W
     assert np.max(np.abs(exact.v_final - ref.v_final)) <= 2 * W
-    assert abs(m @ exact.v_final - m @ np.array([v["speed"] for v in
-                                                  SEED5_CHAIN46["vehicles"]])) <= 1e-14 * m @ exact.v_final
+    speeds = np.array([v["speed"] for v in SEED5_CHAIN46["vehicles"]])
+    assert abs(m @ exact.v_final - m @ speeds) <= 1e-14 * m @ exact.v_final
+
+
+def test_a_pair_closing_slower_than_its_narrow_line_returns_bounces_elastically():
+    # Chain 46 with a front car of 5 slugs: contact 1's release kicks car 1 back at 7.1e-7
+    # ft/s, below what contact 0's line returns (μ W² < s wl²): the line, a spring of slope
+    # s = F_max² / (2 e² E_c), returns the pair from its foot after π/ω with the speed it came
+    # in, reversed. It looped closing and separating at one instant to the event limit.
+    scene = copy.deepcopy(SEED5_CHAIN46)
+    scene["vehicles"][2]["mass"] = 5.0
+    exact = lsc.solve(scene, method="exact-chain")
+    bounce = exact.impacts[2]
+    assert bounce.contact == 0 and exact.impacts[0].contact == 0
+    assert bounce.separation_speed == pytest.approx(bounce.closing_speed, rel=1e-9)
+    (_, _), (d1, f1), (d2, f2), (d3, f3) = scene["contacts"][0]["loading"]["table"]
+    e = scene["contacts"][0]["unloading"]["restitution"]
+    D_max = exact.impacts[0].max_deformation
+    F_max = f2 + (f3 - f2) / (d3 - d2) * (D_max - d2)
+    E_c = 0.5 * f1 * d1 + f1 * (d2 - d1) + 0.5 * (f2 + F_max) * (D_max - d2)
+    m = np.array([v["mass"] for v in scene["vehicles"]])
+    mu = m[0] * m[1] / (m[0] + m[1])
+    omega = math.sqrt(F_max ** 2 / (2 * e * e * E_c) / mu)
+    assert mu * bounce.closing_speed ** 2 < F_max * 2 * e * e * E_c / F_max   # (μW² < s wl²)
+    # (contact 1 open all along: the pair alone; π/ω to the clock's ulps at 0.27 s)
+    assert bounce.t_end - bounce.t_start == pytest.approx(math.pi / omega, rel=1e-8)
+    assert any("contact 0 closed again" in w for w in exact.warnings)
+    speeds = np.array([v["speed"] for v in scene["vehicles"]])
+    assert abs(m @ exact.v_final - m @ speeds) <= 1e-14 * m @ exact.v_final
+    # (SciPy at rtol 1e-12 follows contact 0's first rebound instead, which exact-chain drops:
+    # the pair's final speeds within that rebound's speed, twice the bounce's; the front car's
+    # follow contact 1's 1.1e-13 ft wide line, which SciPy's positions resolve to a few %)
+    ref = lsc.solve(scene, method="scipy", rtol=1e-12)
+    assert np.max(np.abs(exact.v_final - ref.v_final)[:2]) <= 4 * bounce.closing_speed
