@@ -150,3 +150,36 @@ def test_a_pair_closing_slower_than_its_narrow_line_returns_bounces_elastically(
     # follow contact 1's 1.1e-13 ft wide line, which SciPy's positions resolve to a few %)
     ref = lsc.solve(scene, method="scipy", rtol=1e-12)
     assert np.max(np.abs(exact.v_final - ref.v_final)[:2]) <= 4 * bounce.closing_speed
+
+
+#: bench_chain.py --chatter 80 --seed 7, chain 20: three near-plastic contacts (e = 1e-6) of
+#: a rattling chain; at 0.069 s contact 2's rebound kicks car 2 back onto contact 1's line.
+SEED7_CHAIN20 = {
+    "units": "US",
+    "contacts": [
+        {"loading": {"table": [[0.0, 0.0], [0.03708993127960312, 1481.3203034352491],
+                               [0.07417986255920624, 1481.3203034352491],
+                               [1000.0, 399387582.1648397]]},
+         "unloading": {"restitution": 1e-06}, "gap": 0.0},
+        {"loading": {"table": [[0.0, 0.0], [0.021519955496540094, 3339116.713034631],
+                               [0.04303991099308019, 3339116.713034631],
+                               [1000.0, 1551640708242.0737]]},
+         "unloading": {"restitution": 1e-06}, "gap": 0.0},
+        {"loading": {"stiffness": 15515.155702850656}, "unloading": {"restitution": 1e-06},
+         "gap": 0.0}],
+    "vehicles": [{"mass": 26.364287516509584, "speed": 0.20140908570114824},
+                 {"mass": 201.24824582290552, "speed": 0.0},
+                 {"mass": 23.67012749462402, "speed": 0.0},
+                 {"mass": 13.184662600287389, "speed": 0.0}]}
+
+
+def test_a_recontact_shorter_than_the_clock_resolves_is_refused_at_once():
+    # Contact 1 closes again at 7.7e-10 ft/s onto its line (1.6e-19 ft wide, 1.6e20 lbf/ft),
+    # faster than the line returns: it reloads, F_max (24 lbf) stops it in 6.8e-10 s, which
+    # the clock at t = 0.069 s resolves only to 2e-8: refused, as SciPy's bounce of 1.2e-9 s
+    # is; it looped closing and separating at one instant to the event limit.
+    with pytest.raises(lsc.SimulationError) as info:
+        lsc.solve(SEED7_CHAIN20, method="exact-chain", max_events=2000)
+    message = str(info.value)
+    assert message.startswith("contact 1: the impact starts at t = 0.0690244 s and lasts 6.75e-10")
+    assert "too coarse to represent the impact" in message and "re-contact" in message
