@@ -279,4 +279,6 @@ def check_resolved(t0: float, t1: float, what: str) -> None:
             f"{what} starts at t = {t0:.6g} s and lasts {span:.3g} s: at that time the clock "
             f"resolves only {ulp:.3g} s, too coarse to represent the impact (its duration, its "
             "pulse) to a relative 1e-8. Start the scene closer to the first contact (a smaller "
-            "gap, or the speeds at touch with no gap)")
+            "gap, or the speeds at touch with no gap); a contact this brief long after the first "
+            "touch is a re-contact (a near-plastic pair kicked back onto its rebound line) that "
+            "no backend resolves at that time: check the scene for restitutions near 0")

@@ -409,15 +409,15 @@ def _elastic(scaled, slope, R):
     """``(κ, Q)``: the rigid modes ``R`` (n, r) with κ = 0, then the other eigenvectors of
     ``A = scaledᵀ diag(slope) scaled`` (``scaled`` (K, n): ``C M^{-1/2}``), orthogonal to them.
 
-    The eigenvectors are ``eigh``'s; the eigenvalues, where no slope is negative, the squared
-    singular values of the factor ``B = diag(√slope) scaled`` (:func:`_factor_kappa`; the
-    batch's, :mod:`._batch_modes`, the same): ``eigh``
+    The eigenvectors are ``eigh``'s block by block (:func:`_block_eigh`); the eigenvalues,
+    where no slope is negative, the squared singular values of the factor ``B = diag(√slope)
+    scaled`` (:func:`_factor_kappa`; the batch's, :mod:`._batch_modes`, the same): ``eigh``
     gives every eigenvalue to rounding of the largest, so a slow mode behind a line ``1e10``
     times stiffer was ``1e-6`` off, and a long segment's motion drifted in energy by that
     (``4e-8`` of the chain's energy on a locked chain, ``3e-13`` with these)."""
     A = scaled.T @ (slope[:, None] * scaled)
-    lam, V = np.linalg.eigh(A)
-    elastic = np.argsort(np.abs(lam))[R.shape[1]:]
+    lam, V = _block_eigh(A, R)
+    elastic = np.flatnonzero(~np.isnan(lam))
     kappa = lam[elastic]
     if elastic.size and min(slope.tolist()) >= 0.0:
         # (paired in ascending order, as eigh's: eigenvalues that eigh cannot tell apart are
@@ -428,6 +428,30 @@ def _elastic(scaled, slope, R):
     E = V[:, elastic]
     E -= R @ (R.T @ E)
     return np.concatenate([np.zeros(R.shape[1]), kappa]), np.concatenate([R, E], axis=1)
+
+
+def _block_eigh(A, R):
+    """``eigh`` of ``A`` (n, n) one block of coupled vehicles at a time (a contact of zero slope
+    couples nothing), each block's eigenvalues of least magnitude, as many as its rigid modes
+    (columns of ``R``), NaN: one ``eigh`` of all gives each vector to rounding of the largest
+    eigenvalue over the gap, and a soft group beside a line 1e18 times stiffer lost its mode."""
+    n = A.shape[0]
+    lam, V, seen, coupled = np.full(n, np.nan), np.zeros((n, n)), np.zeros(n, bool), A != 0
+    for start in range(n):
+        block, grow = np.zeros(n, bool), np.arange(n) == start
+        while grow.any() and not seen[start]:   # (the vehicles reached through couplings)
+            block |= grow
+            grow = coupled[grow].any(axis=0) & ~block
+        if seen[start]:
+            continue
+        seen |= block
+        idx = np.flatnonzero(block)
+        values, vectors = np.linalg.eigh(A[np.ix_(idx, idx)])
+        rigid = int(np.count_nonzero(np.any(R[idx] != 0, axis=0)))
+        keep = np.argsort(np.abs(values))[rigid:]
+        lam[idx[keep]] = values[keep]
+        V[np.ix_(idx, idx[keep])] = vectors[:, keep]
+    return lam, V
 
 
 def _factor_kappa(B, n: int):

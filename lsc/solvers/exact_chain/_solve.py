@@ -57,8 +57,9 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     start = time.perf_counter()
     segments, events, y, disc, totals = run_segments(transitions, chain.advance,
                                                      t_end=t_end, max_events=max_events)
+    notes = lock_warnings(events).get("warnings", []) + chain.warnings()
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
-             "wall_time": time.perf_counter() - start, **lock_warnings(events)}
+             "wall_time": time.perf_counter() - start, **({"warnings": notes} if notes else {})}
     if isinstance(transitions, LockTransitions):
         # (the locking model's forces, locked ones included, at the event points: the rows
         # built by build_result from the segments, not the plain law's of _Chain.rows)
@@ -109,6 +110,8 @@ class _Chain:
         self.ends = []    # the state at the start and at the end of each segment
         self.parts = model   # whose events the segments search (a LockTransitions: with locks)
         self.brakes = Brakes(model) if model.brakes else None   # (._brakes)
+        self.bounce = ()   # (the contacts that bounce on a narrow line this segment)
+        self.recontacts, self.t0 = {}, 0.0   # (contact: first time it closed onto one)
 
     def rows(self, segments) -> dict | None:
         """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
@@ -129,7 +132,7 @@ class _Chain:
     def advance(self, t0, y0, disc, horizon) -> Step:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
-        y0 = np.asarray(y0, float)
+        y0, self.t0 = np.asarray(y0, float), t0
         lock = _locks.locked(self.parts, disc)
         if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
             y0 = _locks.project(self, y0, lock)
@@ -145,6 +148,9 @@ class _Chain:
         key = tuple(float(st["s"]) for st in contacts)
         force = np.array([float(st["fa"]) + s * (D0[k] - float(st["da"]))
                           for k, (s, st) in enumerate(zip(key, contacts))])
+        self.bounce = self._bounces(contacts, W0, disc, x0, v0)
+        if self.bounce:   # (from the narrow line's foot, where its force is zero)
+            force[list(self.bounce)] = 0.0
         if lock:
             motion = _locks.motion(self, x0, v0, np.array(key), force, lock)
         else:
@@ -203,7 +209,7 @@ class _Chain:
     # ------------------------------------------------------------------ events
     def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=()):
         """``[(event index, Series, tolerance at the start)]`` for every armed event."""
-        tol_d = START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
+        tol_d = self._tol_d(x0)
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
         # force k tol_d drives the rate's derivatives as ω tol_d does its value)
         tol_w = START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist())) \
@@ -221,6 +227,10 @@ class _Chain:
                 out.append((i, *_locks.event_function(self, motion, disc, k - self.K, which,
                                                       force, W0, tol_w)))
                 continue
+            if k in self.bounce:   # (its foot reached again: the bounce's end; not its top)
+                if which == 0:
+                    out.append((i, motion.deformation(k, 0.0), 0.0))
+                continue
             if which == 2:     # closing rate through zero while loading
                 out.append((i, motion.closing_rate(k, W0[k]), tol_w))
                 continue
@@ -234,26 +244,72 @@ class _Chain:
             out.append((i, g, tol))
         return out
 
+    def _tol_d(self, x0) -> float:
+        """The rounding [length] of a deformation at the start (positions ``x0``)."""
+        return START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
+
+    def _bounces(self, contacts, W0, disc, x0, v0) -> tuple:
+        """The contacts that close onto a narrow unloading line slower than it can stop them
+        (:meth:`_leaves_narrow_line` 2): each bounces on it, elastically, from its foot."""
+        closing = [k for k, st in enumerate(contacts)
+                   if st["mode"] == MODE_UNLOADING and W0[k] > 0]
+        if not closing:
+            return ()
+        tol_d = self._tol_d(x0)
+        return tuple(k for k in closing if self._leaves_narrow_line(
+            k, contacts[k], W0, disc, x0, v0, tol_d, math.inf) == 2)
+
     def _leaves_narrow_line(self, k, st, W0, disc, x0, v0, tol_d, tol_w):
         """Which end (0 lower, 1 upper) contact ``k`` leaves its unloading line by at once,
         where the line is narrower than the start's resolution ``tol_d`` [length] and the pair
-        is not clearly closing nor opening (``|Ḋ| <= tol_w`` [velocity]); ``None`` otherwise.
+        is not clearly closing nor opening (``|Ḋ| <= tol_w`` [velocity]); ``None`` otherwise;
+        2 where it bounces on it (:meth:`_bounces`).
 
         Such a line (a near-plastic rebound ``e² D_max`` wide) has both ends on their surfaces
         and every derivative of its event functions within the rounding its stiffness gives
         them: it cannot be followed. The pair leaves it the way its neighbours push it: over
         its top (reloading past ``D_max``) where they press it together (the force it would
         carry held rigid, by the lock rule's own measure, :func:`lsc.locking.pressed`:
-        positive, or zero and rising, a pusher that touches now), else apart (it separates,
-        as the law's instant rule does below :data:`~lsc.contact.REBOUND_RESOLUTION`; the
-        rebound's ringing is dropped)."""
+        positive, or zero and rising, a pusher that touches now) or where it closes faster
+        than the line can stop it (``μ Ḋ² > s wl²``, ``μ`` the two sides' reduced mass with
+        the clusters locked to them: its closing energy above the line's elastic energy);
+        closing slower, it bounces on the line (2: the line followed as a spring from its foot,
+        where its force is zero, back to its foot in about ``π/ω``, the closing speed
+        returned); else apart (it separates, as the law's instant rule does below
+        :data:`~lsc.contact.REBOUND_RESOLUTION`; the rebound's ringing is dropped)."""
         if st["mode"] != MODE_UNLOADING or st["hi"] - st["lo"] > tol_d or abs(W0[k]) > tol_w:
             return None
         model = getattr(self.parts, "_locking", self.model)   # (with the locks held)
         locked = _locks.locked(self.parts, disc)
         mask = [j == k or j in locked for j in range(self.K)]
         _, press = pressed(model, np.concatenate([x0, v0]), disc, model.params, mask)
-        return 1 if press[k] else 0
+        if press[k]:
+            return 1
+        # (closing faster than the line can stop: its kinetic energy of closing, the two sides
+        # with the clusters locked to them, above the line's elastic energy s wl² / 2)
+        rear, front = k, k + 1
+        while rear > 0 and rear - 1 in locked:
+            rear -= 1
+        while front < self.K and front in locked:
+            front += 1
+        m_rear, m_front = self.m[rear: k + 1].sum(), self.m[k + 1: front + 1].sum()
+        kinetic = m_rear * m_front / (m_rear + m_front) * W0[k] * abs(W0[k])
+        closing = W0[k] > START_TOL * self.model.v_scale + 16 * _EPS * max(
+            map(abs, v0.tolist()))
+        if closing:   # (its force records on the line are its rounding: :meth:`warnings`)
+            self.recontacts.setdefault(k, self.t0)
+        if kinetic > float(st["s"]) * float(st["wl"]) ** 2:
+            return 1
+        return 2 if closing else 0   # (a bounce where it closes beyond the speeds' rounding)
+
+    def warnings(self) -> list[str]:
+        """One warning per contact that closed again onto a rebound line narrower than the
+        start resolves (:meth:`_leaves_narrow_line`)."""
+        return [f"contact {k} closed again at t = {t:.6g} s onto its rebound line, narrower than "
+                "the positions resolve: it went over the line's top or bounced on it by the "
+                "line's energy, but the forces and accelerations recorded on that line are its "
+                "rounding (its slope times the positions' ulps)"
+                for k, t in sorted(self.recontacts.items())]
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
