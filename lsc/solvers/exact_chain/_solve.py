@@ -323,7 +323,9 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
         return 0.0
     terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
-    fastest = float(fastest_entering(g.alpha, g.gamma, g.modes.w))
+    coef = g._modal()   # (kind, ω, α, γ, κ) of each mode, on floats
+    fastest = fastest_entering(tuple(x[2] for x in coef), tuple(x[3] for x in coef),
+                               tuple(x[1] for x in coef))
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
         if abs(dp) > start_rounding(tol, omega, fastest, p, size):
@@ -346,7 +348,10 @@ def fastest_entering(alpha, gamma, w):
     """The fastest mode [1/s] that enters ``g`` (coefficients ``alpha, gamma`` (..., n) on modes
     of angular frequency ``w`` (..., n), 0 where none does): a mode of a part of the chain that
     no contact of non-zero slope joins to ``g``'s is exactly absent from it, its rounding too.
-    Arrays for the batch's :func:`._batch_roots.start_times` (one value per function)."""
+    Arrays for the batch's :func:`._batch_roots.start_times` (one value per function); tuples
+    of floats (one function, as :func:`_start` has them) give a float, the same number."""
+    if isinstance(w, tuple):
+        return max((x for a, c, x in zip(alpha, gamma, w) if a != 0 or c != 0), default=0.0)
     used = (alpha != 0) | (gamma != 0)
     return np.max(np.where(used, w, 0.0), axis=-1, initial=0.0)
 
