@@ -44,18 +44,20 @@ GRIDS, GRID_POINTS = 4, 64
 
 
 def _grid_basis(modes: Modes, lo: float, hi: float):
-    """``(tt, S, C)``: :func:`_grid` and its basis; those of a first window (from 0, small)
-    kept on ``modes``: it is the same segment after segment of a set of slopes, whose modes
-    the chains keep (:class:`~._modes.Shape`)."""
+    """``(tt, S, C, times, step)``: :func:`_grid`, its basis, its times as a list and its step
+    (a float); those of a first window (from 0, small) kept on ``modes``: it is the same
+    segment after segment of a set of slopes, whose modes the chains keep
+    (:class:`~._modes.Shape`)."""
     grids = modes.__dict__.setdefault("_grids", {})
     got = grids.get((lo, hi))
     if got is None:
         tt = _grid(modes, lo, hi)
-        got = (tt, *modes.basis(tt))
+        times = tt.tolist()
+        got = (tt, *modes.basis(tt), times, times[1] - times[0])
         if lo == 0.0 and tt.size <= GRID_POINTS:
             if len(grids) >= GRIDS:
                 grids.clear()
-            for a in got:
+            for a in got[:3]:
                 a.flags.writeable = False   # (shared from call to call)
             grids[(lo, hi)] = got
     return got
@@ -110,12 +112,10 @@ def earliest(funcs, lo: float, hi: float,
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
-    tt, S, C = _grid_basis(modes, lo, hi)
+    tt, S, C, times, step = _grid_basis(modes, lo, hi)
     vals = stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T
-    step = tt[1] - tt[0]
     bounds = stack.curvature_bounds(hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
-    times = tt.tolist()
     for j, start in enumerate(starts):   # (the intervals before a function's start are not
         if start > lo:                   # its own)
             unclear[j, :bisect.bisect_right(times, start) - 1] = False

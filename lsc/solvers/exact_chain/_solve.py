@@ -176,12 +176,7 @@ class _Chain:
             if w == 0 and j in self.brakes.parts:   # a stop: at rest, exactly
                 stopped = self.N + self.brakes.vehicle(j)
                 end[stopped] = 0.0
-        # (a contact whose closing rate is an armed event keeps closing all along: its force
-        # is monotone, its extremes at the segment's ends, none inside it to search)
-        # (a lock's closing-rate watch is not a law's: only the laws' contacts, k < K)
-        rising = {k for k, which in (self.parts.events[i] for i, _, _ in funcs)
-                  if which == 2 and k < self.K}
-        self.records.append((t0, motion, force, tau, rising))
+        self.records.append((t0, motion, force, tau, self._unsearched(funcs, key, lock)))
         self.ends.append((y0, end))
 
         def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
@@ -199,6 +194,24 @@ class _Chain:
         once after the loop (:func:`~._peaks.segment_peaks`)."""
         peaks = segment_peaks([rec[1:] for rec in self.records], self.K)
         return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
+
+    def _unsearched(self, funcs, slopes, lock) -> set:
+        """The contacts whose largest force over the segment is at one of its ends, which
+        the event search proves (their forces are not searched, :func:`~._peaks.segment_peaks`):
+        one whose closing rate is an armed event keeps closing all along (its force is
+        monotone); one that starts the segment at the upper end of its piece (``hi - D = 0``:
+        at the top of its unloading line, just past its largest deformation), that end armed,
+        stays at or below it until the segment ends (its force, of slope ``>= 0``, is largest
+        at the start). (A lock's closing-rate watch is not a law's: only the laws' contacts,
+        ``k < K``; with locks held a contact's force is not its law's alone: the closing rate's
+        rule only.)"""
+        out = set()
+        for i, g, _ in funcs:
+            k, which = self.parts.events[i]
+            if k < self.K and (which == 2 or which == 1 and not lock and g.c == 0.0
+                               and slopes[k] >= 0.0):
+                out.add(k)
+        return out
 
     # ------------------------------------------------------------------ events
     def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=()):
