@@ -44,8 +44,9 @@ GRIDS, GRID_POINTS = 4, 64
 
 
 def _grid_basis(modes: Modes, lo: float, hi: float):
-    """``(tt, S, C, times, step)``: :func:`_grid`, its basis, its times as a list and its step
-    (a float); those of a first window (from 0, small) kept on ``modes``: it is the same
+    """``(tt, S, C, times, step, weights)``: :func:`_grid`, its basis, its times as a list, its
+    step (a float) and the weights of :meth:`Stack.bounds_on_grid` over ``[0, hi]``; those of a
+    first window (from 0, small) kept on ``modes``: it is the same
     segment after segment of a set of slopes, whose modes the chains keep
     (:class:`~._modes.Shape`)."""
     grids = modes.__dict__.setdefault("_grids", {})
@@ -53,7 +54,10 @@ def _grid_basis(modes: Modes, lo: float, hi: float):
     if got is None:
         tt = _grid(modes, lo, hi)
         times = tt.tolist()
-        got = (tt, *modes.basis(tt), times, times[1] - times[0])
+        # (the weights of Stack.bounds_on_grid over [0, hi], as Modes.curvature_bounds's terms)
+        weights = None if modes.neg.size else np.concatenate(
+            (np.abs(modes.kappa) * np.minimum(hi, modes._inv_w), np.ones(modes.kappa.size)))
+        got = (tt, *modes.basis(tt), times, times[1] - times[0], weights)
         if lo == 0.0 and tt.size <= GRID_POINTS:
             if len(grids) >= GRIDS:
                 grids.clear()
@@ -77,6 +81,18 @@ class Stack:
         return cls(funcs[0].modes, np.array([g.c for g in funcs]),
                    np.array([g.alpha for g in funcs]), np.array([g.gamma for g in funcs]),
                    funcs)
+
+    def bounds_on_grid(self, weights, T: float):
+        """:meth:`curvature_bounds` over ``[0, T]``, a grid's window (``T`` its end [s]), from
+        its ``weights`` (2n,) (:func:`_grid_basis`): ``|α| @ (|κ| min(T, 1/ω)) + Σ |γ|`` in one
+        product, the same bound to rounding (``None`` weights, a hyperbolic mode: the general
+        bound)."""
+        if weights is None:
+            return self.curvature_bounds(T)
+        ag = self.__dict__.get("_ag")
+        if ag is None:
+            ag = self._ag = np.abs(np.concatenate((self.alpha, self.gamma), axis=1))
+        return ag @ weights
 
     def series(self, j: int) -> Series:
         """Function ``j`` as a :class:`Series`."""
@@ -112,9 +128,9 @@ def earliest(funcs, lo: float, hi: float,
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
-    tt, S, C, times, step = _grid_basis(modes, lo, hi)
+    tt, S, C, times, step, weights = _grid_basis(modes, lo, hi)
     vals = stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T
-    bounds = stack.curvature_bounds(hi)
+    bounds = stack.bounds_on_grid(weights, hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
     for j, start in enumerate(starts):   # (the intervals before a function's start are not
         if start > lo:                   # its own)
