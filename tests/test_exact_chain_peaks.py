@@ -108,7 +108,7 @@ def _closing_rates_only(monkeypatch):
     (the rule before the unloading line's top was: those are searched too)."""
     from lsc.solvers.exact_chain._solve import _Chain
 
-    def unsearched(self, funcs, slopes, lock):
+    def unsearched(self, motion, funcs, disc, force, slopes, lock):
         return {k for k, which in (self.parts.events[i] for i, _, _ in funcs)
                 if which == 2 and k < self.K}
 
@@ -158,6 +158,37 @@ def test_a_force_from_the_top_of_its_unloading_line_is_not_searched(monkeypatch)
         np.testing.assert_allclose(f, g, rtol=1e-15, atol=0)
         np.testing.assert_allclose(a, b, rtol=1e-15, atol=0)
     _check(PILE_UP)
+
+
+#: A chain whose contact 2 starts a segment at the top of its unloading line while contact 3
+#: holds its plateau's force: vehicle 3's acceleration, ``(F2 - F3)/m``, not searched on its
+#: own (one contact with a slope), is largest in magnitude where F2 is least, inside the
+#: segment (found by the hypothesis run of the rule's first version, which left F2 unsearched
+#: there and gave that acceleration 3e-5 low).
+PLATEAU_BESIDE = {
+    "units": "US",
+    "vehicles": [{"mass": 174.52809290499843, "speed": -8.999999999999998},
+                 {"mass": 474.08811456927776, "speed": -8.999999999999998},
+                 {"mass": 100.0, "speed": -8.999999999999998},
+                 {"mass": 328.3474758272579, "speed": -9.999999999999998},
+                 {"mass": 554.2528602871322, "speed": -9.999999999999998}],
+    "contacts": [{"loading": {"stiffness": 2238.567620865544},
+                  "unloading": {"restitution": 0.7924930023638938}, "gap": 0.03104719863891026},
+                 {"loading": {"stiffness": 4774.996725488434},
+                  "unloading": {"restitution": 0.6897452541174777}, "gap": 1.0},
+                 {"loading": {"stiffness": 19761.565147917874},
+                  "unloading": {"restitution": 0.05}, "gap": 0.0},
+                 {"loading": {"table": [[0.0, 0.0], [0.017328240363770935, 2272.5038106723687],
+                                        [0.03465648072754187, 2272.5038106723687],
+                                        [1000.0, 1311402048.8128521]]},
+                  "unloading": {"restitution": 0.7}, "gap": 0.18923829890832303}]}
+
+
+def test_a_force_that_an_acceleration_follows_is_searched():
+    """A force at the top of its unloading line is searched where a vehicle's acceleration
+    follows it beside another contact's constant force (its least value sets that
+    acceleration's largest magnitude): the peaks are the brute force's."""
+    _check(PLATEAU_BESIDE)
 
 
 def test_segments_searched_in_windows_give_the_same_peaks(monkeypatch):

@@ -17,9 +17,10 @@ a derivative flat at the segment's start (:func:`~._roots._taylor_clear`), go to
 :mod:`._roots` one at a time (:func:`~._roots._sign_changes`). The force of a contact whose
 closing rate is an armed event of the segment is not searched: the event search proves that
 rate keeps its sign inside the segment, so the force is monotone there; nor that of a contact
-that starts the segment at the upper end of its piece, that end armed (the top of its
-unloading line, just past its largest deformation): it stays at or below that end, its force
-largest at the start (:meth:`~._solve._Chain._unsearched`). Every quantity of a
+that starts the segment at the upper end of its piece, both ends armed (the top of its
+unloading line, just past its largest deformation): it stays between them, ``|F|`` largest at
+the start, where no acceleration follows its extremes beside a constant force
+(:meth:`~._solve._Chain._unsearched`). Every quantity of a
 segment is then evaluated at all the times found for it (and at both ends), once for all
 segments.
 """

@@ -176,7 +176,8 @@ class _Chain:
             if w == 0 and j in self.brakes.parts:   # a stop: at rest, exactly
                 stopped = self.N + self.brakes.vehicle(j)
                 end[stopped] = 0.0
-        self.records.append((t0, motion, force, tau, self._unsearched(funcs, key, lock)))
+        self.records.append((t0, motion, force, tau,
+                             self._unsearched(motion, funcs, disc, force.tolist(), key, lock)))
         self.ends.append((y0, end))
 
         def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
@@ -195,21 +196,34 @@ class _Chain:
         peaks = segment_peaks([rec[1:] for rec in self.records], self.K)
         return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
 
-    def _unsearched(self, funcs, slopes, lock) -> set:
-        """The contacts whose largest force over the segment is at one of its ends, which
-        the event search proves (their forces are not searched, :func:`~._peaks.segment_peaks`):
-        one whose closing rate is an armed event keeps closing all along (its force is
-        monotone); one that starts the segment at the upper end of its piece (``hi - D = 0``:
-        at the top of its unloading line, just past its largest deformation), that end armed,
-        stays at or below it until the segment ends (its force, of slope ``>= 0``, is largest
-        at the start). (A lock's closing-rate watch is not a law's: only the laws' contacts,
-        ``k < K``; with locks held a contact's force is not its law's alone: the closing rate's
-        rule only.)"""
-        out = set()
-        for i, g, _ in funcs:
-            k, which = self.parts.events[i]
-            if k < self.K and (which == 2 or which == 1 and not lock and g.c == 0.0
-                               and slopes[k] >= 0.0):
+    def _unsearched(self, motion, funcs, disc, force, slopes, lock) -> set:
+        """The contacts whose force over the segment has its extremes at the segment's ends,
+        for itself and for the accelerations that follow it, which the event search proves
+        (their forces are not searched, :func:`~._peaks.segment_peaks`): one whose closing rate
+        is an armed event keeps closing all along (its force is monotone). One that starts the
+        segment at the upper end of its piece (``hi - D = 0``: at the top of its unloading
+        line, just past its largest deformation), both ends armed, stays between them until
+        the segment ends: its force (slope ``>= 0``) is at most its start value ``F(0)`` and
+        at least its lower end's, itself at least ``-F(0)``, so ``|F|`` too is largest at the
+        start; it is left unsearched where no acceleration needs its extremes beside: each of
+        its two vehicles is searched on its own (between two contacts with a slope) or is
+        pushed by it alone (its other contact open, no force: ``|a| = |F|/m``). (A lock's
+        closing-rate watch is not a law's: only the laws' contacts, ``k < K``; with locks held
+        a contact's force is not its law's alone, and a braked vehicle's acceleration has the
+        friction beside the force: the closing rate's rule only.)"""
+        armed = {self.parts.events[i]: g for i, g, _ in funcs}
+        out = {k for k, which in armed if which == 2 and k < self.K}
+        if lock or self.brakes:
+            return out
+        own = motion.shape.searched.tolist()
+        for (k, which), g in armed.items():
+            if which != 1 or k >= self.K or g.c != 0.0 or (k, 0) not in armed \
+                    or not slopes[k] >= 0.0 or not force[k] >= 0.0 \
+                    or not disc[k]["fa"] - slopes[k] * disc[k]["wl"] >= -force[k]:
+                continue
+            if all(self.K + i in own or all(slopes[j] == 0.0 and force[j] == 0.0
+                                            for j in (i - 1, i) if j != k and 0 <= j < self.K)
+                   for i in (k, k + 1)):
                 out.add(k)
         return out
 
