@@ -213,12 +213,12 @@ class _Chain:
         friction beside the force: the closing rate's rule only.)"""
         armed = {self.parts.events[i]: g for i, g, _ in funcs}
         out = {k for k, which in armed if which == 2 and k < self.K}
-        if lock or self.brakes:
+        tops = [k for (k, which), g in armed.items() if which == 1 and g.c == 0.0 and k < self.K]
+        if not tops or lock or self.brakes:
             return out
         own = motion.shape.searched.tolist()
-        for (k, which), g in armed.items():
-            if which != 1 or k >= self.K or g.c != 0.0 or (k, 0) not in armed \
-                    or not slopes[k] >= 0.0 or not force[k] >= 0.0 \
+        for k in tops:
+            if (k, 0) not in armed or not slopes[k] >= 0.0 or not force[k] >= 0.0 \
                     or not disc[k]["fa"] - slopes[k] * disc[k]["wl"] >= -force[k]:
                 continue
             if all(self.K + i in own or all(slopes[j] == 0.0 and force[j] == 0.0
