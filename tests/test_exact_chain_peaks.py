@@ -103,12 +103,26 @@ def test_segment_peaks_match_a_dense_brute_force(scene):
     _check(scene)
 
 
+def _closing_rates_only(monkeypatch):
+    """Only the forces of the contacts whose closing rate is an armed event left unsearched
+    (the rule before the unloading line's top was: those are searched too)."""
+    from lsc.solvers.exact_chain._solve import _Chain
+
+    def unsearched(self, motion, funcs, disc, force, slopes, lock):
+        return {k for k, which in (self.parts.events[i] for i, _, _ in funcs)
+                if which == 2 and k < self.K}
+
+    monkeypatch.setattr(_Chain, "_unsearched", unsearched)
+
+
 def test_the_pile_up_has_a_force_searched_from_its_taylor_bound(monkeypatch):
     """The pile-up of the benchmark has a segment that starts at a contact's max deformation,
-    where the derivative of its force is zero to rounding: its search starts where the Taylor
-    bound clears it (later than 0), and the peaks are still the brute force's."""
+    where the derivative of its force is zero to rounding: searched (with the top of the
+    unloading line's rule off), its search starts where the Taylor bound clears it (later
+    than 0), and the peaks are still the brute force's."""
     from lsc.solvers.exact_chain import _peaks
 
+    _closing_rates_only(monkeypatch)
     starts = []
 
     def spy(d, T, rounding):
@@ -119,6 +133,62 @@ def test_the_pile_up_has_a_force_searched_from_its_taylor_bound(monkeypatch):
     monkeypatch.setattr(_peaks, "_taylor_clear", spy)
     _check(PILE_UP)
     assert any(t > 0 for t in starts), starts
+
+
+def test_a_force_from_the_top_of_its_unloading_line_is_not_searched(monkeypatch):
+    """A contact that starts a segment at the top of its unloading line (just past its max
+    deformation, that end armed) keeps its largest force at the start: the pile-up's two
+    unloading segments that start so leave that contact's force unsearched, and every peak is
+    the one the full search finds, to rounding (and the brute force's)."""
+    from lsc.solvers.exact_chain._solve import _Chain, _transitions
+    from lsc.solvers.segments import run_segments
+
+    model = HybridModel(lsc.Scene.load(PILE_UP))
+    chain = _Chain(model)
+    run_segments(_transitions(model), chain.advance)
+    # (the contacts of the segments after contact 0's and contact 1's max deformations)
+    unsearched = [rec[4] for rec in chain.records]
+    assert unsearched == [{0}, {0, 1}, {0, 1}, {1}, set()], unsearched
+    kept = _segments(PILE_UP)[2]
+    _closing_rates_only(monkeypatch)
+    full = _segments(PILE_UP)[2]
+    assert len(kept) == len(full) == 5
+    for (t0, t1, f, a), (u0, u1, g, b) in zip(kept, full):
+        assert (t0, t1) == (u0, u1)
+        np.testing.assert_allclose(f, g, rtol=1e-15, atol=0)
+        np.testing.assert_allclose(a, b, rtol=1e-15, atol=0)
+    _check(PILE_UP)
+
+
+#: A chain whose contact 2 starts a segment at the top of its unloading line while contact 3
+#: holds its plateau's force: vehicle 3's acceleration, ``(F2 - F3)/m``, not searched on its
+#: own (one contact with a slope), is largest in magnitude where F2 is least, inside the
+#: segment (found by the hypothesis run of the rule's first version, which left F2 unsearched
+#: there and gave that acceleration 3e-5 low).
+PLATEAU_BESIDE = {
+    "units": "US",
+    "vehicles": [{"mass": 174.52809290499843, "speed": -8.999999999999998},
+                 {"mass": 474.08811456927776, "speed": -8.999999999999998},
+                 {"mass": 100.0, "speed": -8.999999999999998},
+                 {"mass": 328.3474758272579, "speed": -9.999999999999998},
+                 {"mass": 554.2528602871322, "speed": -9.999999999999998}],
+    "contacts": [{"loading": {"stiffness": 2238.567620865544},
+                  "unloading": {"restitution": 0.7924930023638938}, "gap": 0.03104719863891026},
+                 {"loading": {"stiffness": 4774.996725488434},
+                  "unloading": {"restitution": 0.6897452541174777}, "gap": 1.0},
+                 {"loading": {"stiffness": 19761.565147917874},
+                  "unloading": {"restitution": 0.05}, "gap": 0.0},
+                 {"loading": {"table": [[0.0, 0.0], [0.017328240363770935, 2272.5038106723687],
+                                        [0.03465648072754187, 2272.5038106723687],
+                                        [1000.0, 1311402048.8128521]]},
+                  "unloading": {"restitution": 0.7}, "gap": 0.18923829890832303}]}
+
+
+def test_a_force_that_an_acceleration_follows_is_searched():
+    """A force at the top of its unloading line is searched where a vehicle's acceleration
+    follows it beside another contact's constant force (its least value sets that
+    acceleration's largest magnitude): the peaks are the brute force's."""
+    _check(PLATEAU_BESIDE)
 
 
 def test_segments_searched_in_windows_give_the_same_peaks(monkeypatch):

@@ -198,10 +198,11 @@ class Series:
         :meth:`derivatives_from_zero` gives the first; the second is that on ``|α|, |γ|, |κ|``,
         ``size`` the size of ``g(0)``: their rounding is a few ulps of it; a search that stops at
         the first derivative clear of rounding computes no more)."""
-        minus = [-k for k in self.modes._kappa]
-        return zip(_at_zero_terms(self.c, self.alpha.tolist(), self.gamma.tolist(), minus),
-                   _at_zero_terms(size, np.abs(self.alpha).tolist(), np.abs(self.gamma).tolist(),
-                                  [abs(k) for k in self.modes._kappa]))
+        coef = self._modal()
+        alpha, gamma = [x[2] for x in coef], [x[3] for x in coef]
+        return zip(_at_zero_terms(self.c, alpha, gamma, [-x[4] for x in coef]),
+                   _at_zero_terms(size, [abs(a) for a in alpha], [abs(g) for g in gamma],
+                                  [abs(x[4]) for x in coef]))
 
     def curvature_bound(self, T: float) -> float:
         """A bound on ``|g''|`` over ``[0, T]`` (:meth:`Modes.curvature_bounds`)."""

@@ -16,7 +16,11 @@ the few intervals the bound cannot clear without a sign change (a derivative gra
 a derivative flat at the segment's start (:func:`~._roots._taylor_clear`), go to the search of
 :mod:`._roots` one at a time (:func:`~._roots._sign_changes`). The force of a contact whose
 closing rate is an armed event of the segment is not searched: the event search proves that
-rate keeps its sign inside the segment, so the force is monotone there. Every quantity of a
+rate keeps its sign inside the segment, so the force is monotone there; nor that of a contact
+that starts the segment at the upper end of its piece, both ends armed (the top of its
+unloading line, just past its largest deformation): it stays between them, ``|F|`` largest at
+the start, where no acceleration follows its extremes beside a constant force
+(:meth:`~._solve._Chain._unsearched`). Every quantity of a
 segment is then evaluated at all the times found for it (and at both ends), once for all
 segments.
 """
@@ -64,7 +68,8 @@ def basis_of(kind, w, tau, hyperbolic=None):
 def segment_peaks(records, K: int):
     """For each segment ``(motion, force (K,), τ, loading)`` of ``records``
     (:class:`~._modes.Motion`, the contact forces at its start, its length [s], the contacts
-    that keep closing all along it: their forces, monotone, are not searched):
+    whose largest force over it is at one of its ends, proven by the event search: their
+    forces are not searched, :meth:`~._solve._Chain._unsearched`):
     ``(the largest force of each contact
     (K,), the acceleration of largest magnitude of each vehicle (N,), signed)`` over ``[0, τ]``
     (see the module docstring)."""

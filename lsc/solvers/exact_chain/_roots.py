@@ -44,18 +44,24 @@ GRIDS, GRID_POINTS = 4, 64
 
 
 def _grid_basis(modes: Modes, lo: float, hi: float):
-    """``(tt, S, C)``: :func:`_grid` and its basis; those of a first window (from 0, small)
-    kept on ``modes``: it is the same segment after segment of a set of slopes, whose modes
-    the chains keep (:class:`~._modes.Shape`)."""
+    """``(tt, S, C, times, step, weights)``: :func:`_grid`, its basis, its times as a list, its
+    step (a float) and the weights of :meth:`Stack.bounds_on_grid` over ``[0, hi]``; those of a
+    first window (from 0, small) kept on ``modes``: it is the same
+    segment after segment of a set of slopes, whose modes the chains keep
+    (:class:`~._modes.Shape`)."""
     grids = modes.__dict__.setdefault("_grids", {})
     got = grids.get((lo, hi))
     if got is None:
         tt = _grid(modes, lo, hi)
-        got = (tt, *modes.basis(tt))
+        times = tt.tolist()
+        # (the weights of Stack.bounds_on_grid over [0, hi], as Modes.curvature_bounds's terms)
+        weights = None if modes.neg.size else np.concatenate(
+            (np.abs(modes.kappa) * np.minimum(hi, modes._inv_w), np.ones(modes.kappa.size)))
+        got = (tt, *modes.basis(tt), times, times[1] - times[0], weights)
         if lo == 0.0 and tt.size <= GRID_POINTS:
             if len(grids) >= GRIDS:
                 grids.clear()
-            for a in got:
+            for a in got[:3]:
                 a.flags.writeable = False   # (shared from call to call)
             grids[(lo, hi)] = got
     return got
@@ -75,6 +81,18 @@ class Stack:
         return cls(funcs[0].modes, np.array([g.c for g in funcs]),
                    np.array([g.alpha for g in funcs]), np.array([g.gamma for g in funcs]),
                    funcs)
+
+    def bounds_on_grid(self, weights, T: float):
+        """:meth:`curvature_bounds` over ``[0, T]``, a grid's window (``T`` its end [s]), from
+        its ``weights`` (2n,) (:func:`_grid_basis`): ``|α| @ (|κ| min(T, 1/ω)) + Σ |γ|`` in one
+        product, the same bound to rounding (``None`` weights, a hyperbolic mode: the general
+        bound)."""
+        if weights is None:
+            return self.curvature_bounds(T)
+        ag = self.__dict__.get("_ag")
+        if ag is None:
+            ag = self._ag = np.abs(np.concatenate((self.alpha, self.gamma), axis=1))
+        return ag @ weights
 
     def series(self, j: int) -> Series:
         """Function ``j`` as a :class:`Series`."""
@@ -110,12 +128,10 @@ def earliest(funcs, lo: float, hi: float,
             if tau is not None and (best is None or tau < best):
                 best, best_j = tau, j
         return best, best_j
-    tt, S, C = _grid_basis(modes, lo, hi)
+    tt, S, C, times, step, weights = _grid_basis(modes, lo, hi)
     vals = stack.c[:, None] + stack.alpha @ S.T + stack.gamma @ C.T
-    step = tt[1] - tt[0]
-    bounds = stack.curvature_bounds(hi)
+    bounds = stack.bounds_on_grid(weights, hi)
     unclear = np.minimum(vals[:, :-1], vals[:, 1:]) <= (bounds * step ** 2 / 8.0)[:, None]
-    times = tt.tolist()
     for j, start in enumerate(starts):   # (the intervals before a function's start are not
         if start > lo:                   # its own)
             unclear[j, :bisect.bisect_right(times, start) - 1] = False

@@ -182,12 +182,8 @@ class _Chain:
             if w == 0 and j in self.brakes.parts:   # a stop: at rest, exactly
                 stopped = self.N + self.brakes.vehicle(j)
                 end[stopped] = 0.0
-        # (a contact whose closing rate is an armed event keeps closing all along: its force
-        # is monotone, its extremes at the segment's ends, none inside it to search)
-        # (a lock's closing-rate watch is not a law's: only the laws' contacts, k < K)
-        rising = {k for k, which in (self.parts.events[i] for i, _, _ in funcs)
-                  if which == 2 and k < self.K}
-        self.records.append((t0, motion, force, tau, rising))
+        self.records.append((t0, motion, force, tau,
+                             self._unsearched(motion, funcs, disc, force.tolist(), key, lock)))
         self.ends.append((y0, end))
 
         def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
@@ -205,6 +201,37 @@ class _Chain:
         once after the loop (:func:`~._peaks.segment_peaks`)."""
         peaks = segment_peaks([rec[1:] for rec in self.records], self.K)
         return [(t0, t0 + tau, *pk) for (t0, _, _, tau, _), pk in zip(self.records, peaks)]
+
+    def _unsearched(self, motion, funcs, disc, force, slopes, lock) -> set:
+        """The contacts whose force over the segment has its extremes at the segment's ends,
+        for itself and for the accelerations that follow it, which the event search proves
+        (their forces are not searched, :func:`~._peaks.segment_peaks`): one whose closing rate
+        is an armed event keeps closing all along (its force is monotone). One that starts the
+        segment at the upper end of its piece (``hi - D = 0``: at the top of its unloading
+        line, just past its largest deformation), both ends armed, stays between them until
+        the segment ends: its force (slope ``>= 0``) is at most its start value ``F(0)`` and
+        at least its lower end's, itself at least ``-F(0)``, so ``|F|`` too is largest at the
+        start; it is left unsearched where no acceleration needs its extremes beside: each of
+        its two vehicles is searched on its own (between two contacts with a slope) or is
+        pushed by it alone (its other contact open, no force: ``|a| = |F|/m``). (A lock's
+        closing-rate watch is not a law's: only the laws' contacts, ``k < K``; with locks held
+        a contact's force is not its law's alone, and a braked vehicle's acceleration has the
+        friction beside the force: the closing rate's rule only.)"""
+        armed = {self.parts.events[i]: g for i, g, _ in funcs}
+        out = {k for k, which in armed if which == 2 and k < self.K}
+        tops = [k for (k, which), g in armed.items() if which == 1 and g.c == 0.0 and k < self.K]
+        if not tops or lock or self.brakes:
+            return out
+        own = motion.shape.searched.tolist()
+        for k in tops:
+            if (k, 0) not in armed or not slopes[k] >= 0.0 or not force[k] >= 0.0 \
+                    or not disc[k]["fa"] - slopes[k] * disc[k]["wl"] >= -force[k]:
+                continue
+            if all(self.K + i in own or all(slopes[j] == 0.0 and force[j] == 0.0
+                                            for j in (i - 1, i) if j != k and 0 <= j < self.K)
+                   for i in (k, k + 1)):
+                out.add(k)
+        return out
 
     # ------------------------------------------------------------------ events
     def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=()):
@@ -379,7 +406,9 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
         return 0.0
     terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
-    fastest = float(fastest_entering(g.alpha, g.gamma, g.modes.w))
+    coef = g._modal()   # (kind, ω, α, γ, κ) of each mode, on floats
+    fastest = fastest_entering(tuple(x[2] for x in coef), tuple(x[3] for x in coef),
+                               tuple(x[1] for x in coef))
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
         if abs(dp) > start_rounding(tol, omega, fastest, p, size):
@@ -402,7 +431,10 @@ def fastest_entering(alpha, gamma, w):
     """The fastest mode [1/s] that enters ``g`` (coefficients ``alpha, gamma`` (..., n) on modes
     of angular frequency ``w`` (..., n), 0 where none does): a mode of a part of the chain that
     no contact of non-zero slope joins to ``g``'s is exactly absent from it, its rounding too.
-    Arrays for the batch's :func:`._batch_roots.start_times` (one value per function)."""
+    Arrays for the batch's :func:`._batch_roots.start_times` (one value per function); tuples
+    of floats (one function, as :func:`_start` has them) give a float, the same number."""
+    if isinstance(w, tuple):
+        return max((x for a, c, x in zip(alpha, gamma, w) if a != 0 or c != 0), default=0.0)
     used = (alpha != 0) | (gamma != 0)
     return np.max(np.where(used, w, 0.0), axis=-1, initial=0.0)
 
