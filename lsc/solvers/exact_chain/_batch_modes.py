@@ -5,7 +5,7 @@ Every array has a leading member axis ``b``. A segment of each member is solved 
 rigid modes built exactly, one translation per group of vehicles joined by loaded contacts; the
 others' vectors from ``np.linalg.eigh`` on the stacked matrices, made orthogonal to them, their
 eigenvalues the squared singular values of each member's factor ``diag(√s) C M^{-1/2}`` as in
-the single solve, :func:`._modes._factor_kappa`), the members grouped by which contacts carry a
+the single solve, :func:`._eigen._factor_kappa`), the members grouped by which contacts carry a
 slope. An event function, a force or an acceleration is a
 :class:`Sums`: ``g(τ) = c + Σ_j α_j S_j(τ) + γ_j C_j(τ)`` (``S = sin ωτ/ω``, ``C = (1 - cos
 ωτ)/ω²``, or ``τ, τ²/2`` for a rigid mode), for a batch of functions ``(b, F)`` at once. Only
@@ -19,7 +19,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ._modes import _factor_kappa
+from ._eigen import _factor_kappa
 
 __all__ = ["BatchMotion", "Sums", "basis", "half_angle", "msum"]
 
@@ -248,7 +248,7 @@ def _modes(C, slope, root, on):
     E, _ = np.linalg.qr(E)
     lam_e = np.einsum("bij,bij->bj", E, A @ E)
     # (each eigenvalue the squared singular value of its member's factor, as the single
-    # solve's, :func:`._modes._factor_kappa`, paired with these vectors in ascending order;
+    # solve's, :func:`._eigen._factor_kappa`, paired with these vectors in ascending order;
     # the batch's slopes are never negative: no falling table piece)
     rank = np.argsort(np.argsort(lam_e, axis=1), axis=1)
     lam_e = np.take_along_axis(_factor_kappa(np.sqrt(slope)[:, :, None] * Cr, N - n_rigid),

@@ -33,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._eigen import _block_eigh, _factor_kappa
+
 __all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
 
 
@@ -429,42 +431,6 @@ def _elastic(scaled, slope, R):
     E = V[:, elastic]
     E -= R @ (R.T @ E)
     return np.concatenate([np.zeros(R.shape[1]), kappa]), np.concatenate([R, E], axis=1)
-
-
-def _block_eigh(A, R):
-    """``eigh`` of ``A`` (n, n) one block of coupled vehicles at a time (a contact of zero slope
-    couples nothing), each block's eigenvalues of least magnitude, as many as its rigid modes
-    (columns of ``R``), NaN: one ``eigh`` of all gives each vector to rounding of the largest
-    eigenvalue over the gap, and a soft group beside a line 1e18 times stiffer lost its mode."""
-    n = A.shape[0]
-    lam, V, seen, coupled = np.full(n, np.nan), np.zeros((n, n)), np.zeros(n, bool), A != 0
-    for start in range(n):
-        block, grow = np.zeros(n, bool), np.arange(n) == start
-        while grow.any() and not seen[start]:   # (the vehicles reached through couplings)
-            block |= grow
-            grow = coupled[grow].any(axis=0) & ~block
-        if seen[start]:
-            continue
-        seen |= block
-        idx = np.flatnonzero(block)
-        values, vectors = np.linalg.eigh(A[np.ix_(idx, idx)])
-        rigid = int(np.count_nonzero(np.any(R[idx] != 0, axis=0)))
-        keep = np.argsort(np.abs(values))[rigid:]
-        lam[idx[keep]] = values[keep]
-        V[np.ix_(idx, idx[keep])] = vectors[:, keep]
-    return lam, V
-
-
-def _factor_kappa(B, n: int):
-    """The ``n`` largest eigenvalues (ascending) [1/s²] of ``Bᵀ B``: the squared singular
-    values of ``B`` (..., K, N), each to near full relative accuracy (SVD of ``Bᵀ``, whose
-    columns carry the stiffnesses' grading: within 4e-15 of a 50-digit eigensolve on chains of
-    masses 1:1000 and slopes 1:1e11, where ``eigh`` of ``Bᵀ B`` is up to 1e-5 off; the SVD of
-    ``B`` itself 4e-11). Stacked ``B`` (the batch's members) give each member's values as one
-    alone would: one LAPACK call per matrix. An open contact's zero row adds a zero singular
-    value only, below the ``n`` kept."""
-    sigma = np.linalg.svd(np.swapaxes(B, -1, -2), compute_uv=False)   # (descending)
-    return sigma[..., :n][..., ::-1] ** 2
 
 
 def _held_modes(C, slopes, root, held):
