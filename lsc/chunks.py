@@ -137,9 +137,11 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
     if u.size == 0:
         return np.inf, -np.inf
 
+    probe = _probe(scene, path)
+
     def accepted(j: int) -> bool:
         try:
-            scene.with_values({path: float(u[j])})
+            scene.with_values(probe(float(u[j])))
             return True
         except SceneError:
             return False
@@ -167,6 +169,24 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
             a, b = (mid, b) if accepted(mid) else (a, mid)
         last = a
     return float(u[first]), float(u[last])
+
+
+def _probe(scene: Scene, path: str):
+    """``value -> {path: value, ...}``: the values that probe ``path`` alone. A vehicle's speed
+    is probed with every other vehicle's set to close on it at one unit of speed per place
+    (rear ones faster): probed beside the scene's own speeds, a rear car's speed below the
+    others' would be refused by the closing rule (a rule of the member's speeds together, which
+    :func:`validate` screens per member), and every member with it loaded in full. Setting
+    the others can only refuse more values (a narrower interval: more members loaded in full),
+    never accept one the field's own checks refuse."""
+    parts = path.replace("[", ".").replace("]", "").split(".")
+    if not (len(parts) == 3 and parts[0] == "vehicles" and parts[1].isdigit()
+            and parts[2] == "speed"):
+        return lambda value: {path: value}
+    i = int(parts[1])
+    others = [j for j in range(scene.n_vehicles) if j != i]
+    return lambda value: {path: value, **{f"vehicles.{j}.speed": value + (i - j)
+                                          for j in others}}
 
 
 def empty_metrics(scene: Scene, n: int, names=None) -> dict:
