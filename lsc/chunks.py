@@ -27,7 +27,7 @@ import numpy as np
 from .errors import SceneError, SimulationError
 from .model import HybridModel
 from .result import METRICS
-from .scene import Scene, UnloadingStiffness
+from .scene import GAP_RATIO, MAGNITUDES, Damping, Scene, UnloadingStiffness
 from . import parameters, solvers
 
 __all__ = ["Task", "solve_task", "run_tasks", "task_size", "slots", "window", "is_dask",
@@ -89,21 +89,27 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
 
     Numeric fields are checked against the loader's bounds by probing each path's extremes
     (every bound the loader applies to one field is an interval); cross-field rules (closing
-    speeds, unloading stiffer than loading) are screened per member. Any member a screen flags is
-    loaded in full, so its message is exactly the loader's.
+    speeds, the speeds' spread, gaps against the crush, unloading stiffer than loading) are
+    screened per member (or, where :func:`_speed_screen` cannot, each speed is probed beside
+    the scene's own). Any member a screen flags is loaded in full, so its message is exactly
+    the loader's.
     """
     status = np.full(n, "ok", dtype=object)
-    suspect = np.zeros(n, bool)
-    for path, vals in values.items():
-        bad = ~np.isfinite(vals)
-        lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]))
-        suspect |= bad | (vals < lo) | (vals > hi)
-    # closing speeds (no brakes): the rear vehicle of some pair must be faster
     speeds = np.tile(scene.speeds, (n, 1))
     for path, vals in values.items():
-        parts = path.replace("[", ".").replace("]", "").split(".")
+        parts = _parts(path)
         if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
             speeds[:, int(parts[1])] = vals
+    # the rules on the speeds together besides the closing one (screened here, or else each
+    # speed probed beside the scene's own, which those rules hold to)
+    suspect = _speed_screen(scene, values, speeds)
+    alone = suspect is None
+    suspect = np.zeros(n, bool) if alone else suspect
+    for path, vals in values.items():
+        bad = ~np.isfinite(vals)
+        lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]), alone)
+        suspect |= bad | (vals < lo) | (vals > hi)
+    # closing speeds (no brakes): the rear vehicle of some pair must be faster
     if not any(v.brake is not None for v in scene.vehicles):
         suspect |= ~np.any(speeds[:, :-1] - speeds[:, 1:] > 0, axis=1)
     # unloading stiffer than a linear loading line
@@ -128,8 +134,10 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
     return status
 
 
-def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, float]:
-    """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone.
+def _valid_interval(scene: Scene, path: str, u: np.ndarray,
+                    alone: bool = True) -> tuple[float, float]:
+    """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone
+    (``alone`` False: a speed beside the others closing on it, :func:`_probe`).
 
     Every bound the loader puts on one numeric field is an interval, so bisection from an
     accepted anchor (the value nearest the base scene's own) finds its ends in O(log n) loads.
@@ -137,7 +145,7 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
     if u.size == 0:
         return np.inf, -np.inf
 
-    probe = _probe(scene, path)
+    probe = (lambda value: {path: value}) if alone else _probe(scene, path)
 
     def accepted(j: int) -> bool:
         try:
@@ -171,15 +179,57 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
     return float(u[first]), float(u[last])
 
 
+def _parts(path: str) -> list:
+    return path.replace("[", ".").replace("]", "").split(".")
+
+
+def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray):
+    """(n,) bool: the members that the loader's rules on the vehicles' speeds together, besides
+    the closing one, might refuse: speeds all within :data:`lsc.scene.MAGNITUDES` of each
+    other, and a gap wider than :data:`lsc.scene.GAP_RATIO` times the crush the relative
+    kinetic energy can reach (as the loader computes them, with a factor of 2 to spare);
+    ``speeds`` (n, N) each member's [scene units]. None where that crush is out of reach here
+    (a loading line that is not straight, damping, a swept path other than a vehicle's speed
+    or mass, a contact's gap, loading stiffness or unloading): each speed is then probed beside
+    the scene's own speeds, as every other path is."""
+    n = speeds.shape[0]
+    masses = np.tile([v.mass for v in scene.vehicles], (n, 1))
+    swept = {}
+    for path, vals in values.items():
+        parts = _parts(path)
+        if len(parts) < 3 or not parts[1].isdigit():
+            return None
+        if parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"]):
+            if parts[2] == "mass":
+                masses[:, int(parts[1])] = vals
+        elif parts[0] == "contacts" and (parts[2:] in (["gap"], ["loading", "stiffness"])
+                                         or parts[2] == "unloading"):
+            swept[(int(parts[1]), parts[2])] = vals
+        else:
+            return None
+    with np.errstate(all="ignore"):   # (a non-finite value: flagged, NaN compares False)
+        u = speeds - (np.sum(masses * speeds, axis=1, keepdims=True)
+                      / np.sum(masses, axis=1, keepdims=True))
+        energy = 0.5 * np.sum(masses * u * u, axis=1)
+        suspect = ~(np.ptp(speeds, axis=1) >= 2 * MAGNITUDES[0])
+        for k, c in enumerate(scene.contacts):
+            loading = getattr(c.law, "loading", None)
+            if isinstance(c.law, Damping) or loading is None or not loading.is_linear:
+                return None
+            crush = np.sqrt(2.0 * energy / swept.get((k, "loading"), loading.end_slope))
+            suspect |= ~(swept.get((k, "gap"), c.gap) <= 0.5 * GAP_RATIO * crush)
+    return suspect
+
+
 def _probe(scene: Scene, path: str):
-    """``value -> {path: value, ...}``: the values that probe ``path`` alone. A vehicle's speed
-    is probed with every other vehicle's set to close on it at one unit of speed per place
-    (rear ones faster): probed beside the scene's own speeds, a rear car's speed below the
-    others' would be refused by the closing rule (a rule of the member's speeds together, which
-    :func:`validate` screens per member), and every member with it loaded in full. Setting
-    the others can only refuse more values (a narrower interval: more members loaded in full),
-    never accept one the field's own checks refuse."""
-    parts = path.replace("[", ".").replace("]", "").split(".")
+    """``value -> {path: value, ...}``: the values that probe ``path`` alone, where
+    :func:`_speed_screen` screens the rules on the speeds together. A vehicle's speed is probed
+    with every other vehicle's set to close on it at one unit of speed per place (rear ones
+    faster): beside the scene's own speeds, a rear car's speed below the others' would be
+    refused by the closing rule and every member with it loaded in full. Setting the others
+    can only refuse more values (a narrower interval: more members loaded in full), never
+    accept one the field's own checks refuse."""
+    parts = _parts(path)
     if not (len(parts) == 3 and parts[0] == "vehicles" and parts[1].isdigit()
             and parts[2] == "speed"):
         return lambda value: {path: value}

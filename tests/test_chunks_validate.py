@@ -62,3 +62,20 @@ def test_statuses_are_the_loaders_own_with_speeds_swept():
     want = [_loader_status(scene, values, j) for j in range(n)]
     assert list(status) == want
     assert sum(s != "ok" for s in want) >= 6 and sum(s == "ok" for s in want) >= 10
+
+
+def test_a_gap_too_wide_for_the_members_energy_has_the_loaders_message():
+    # the rule of the gaps against the crush the relative kinetic energy can reach is one of
+    # the speeds, masses, stiffnesses and gaps together: a rear car barely closing (the speed
+    # probed beside cars closing on it is accepted) or barely heavy must still be refused
+    scene = lsc.load_scene(_CHAIN)
+    cases = [{"vehicles.0.speed": np.array([5.0, 1e-6, 1e-8, 1e-12, -3.0])},
+             {"vehicles.0.speed": np.array([5.0, 1e-6, 2.0, 1e-6, 1e-3]),
+              "vehicles.0.mass": np.array([100.0, 1e-30, 1e-40, 1e-3, 1e-9]),
+              "contacts.1.gap": np.array([0.0, 0.5, 0.9, 1e-3, 0.7]),
+              "contacts.0.loading.stiffness": np.array([1e4, 1e6, 1e9, 1e3, 1e5])}]
+    for values in cases:
+        status = chunks.validate(scene, values, 5)
+        want = [_loader_status(scene, values, j) for j in range(5)]
+        assert list(status) == want
+        assert any("too wide" in s for s in want) and want[0] == "ok"
