@@ -187,11 +187,12 @@ def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray):
     """(n,) bool: the members that the loader's rules on the vehicles' speeds together, besides
     the closing one, might refuse: speeds all within :data:`lsc.scene.MAGNITUDES` of each
     other, and a gap wider than :data:`lsc.scene.GAP_RATIO` times the crush the relative
-    kinetic energy can reach (as the loader computes them, with a factor of 2 to spare);
-    ``speeds`` (n, N) each member's [scene units]. None where that crush is out of reach here
-    (a loading line that is not straight, damping, a swept path other than a vehicle's speed
-    or mass, a contact's gap, loading stiffness or unloading): each speed is then probed beside
-    the scene's own speeds, as every other path is."""
+    kinetic energy can reach (the members whose energy is at most what the contact's loading
+    absorbs up to twice that gap over the ratio: a factor 2 to spare); ``speeds`` (n, N) each
+    member's [scene units]. None where that is out of reach here (a swept path other than a
+    vehicle's speed, mass or weight, a contact's gap or unloading, or a straight loading line's
+    stiffness): each speed is then probed beside the scene's own speeds, as every other path
+    is."""
     n = speeds.shape[0]
     masses = np.tile([v.mass for v in scene.vehicles], (n, 1))
     swept = {}
@@ -199,9 +200,9 @@ def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray):
         parts = _parts(path)
         if len(parts) < 3 or not parts[1].isdigit():
             return None
-        if parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"]):
-            if parts[2] == "mass":
-                masses[:, int(parts[1])] = vals
+        if parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"], ["weight"]):
+            if parts[2] != "speed":
+                masses[:, int(parts[1])] = vals if parts[2] == "mass" else vals / scene.g
         elif parts[0] == "contacts" and (parts[2:] in (["gap"], ["loading", "stiffness"])
                                          or parts[2] == "unloading"):
             swept[(int(parts[1]), parts[2])] = vals
@@ -213,11 +214,18 @@ def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray):
         energy = 0.5 * np.sum(masses * u * u, axis=1)
         suspect = ~(np.ptp(speeds, axis=1) >= 2 * MAGNITUDES[0])
         for k, c in enumerate(scene.contacts):
-            loading = getattr(c.law, "loading", None)
-            if isinstance(c.law, Damping) or loading is None or not loading.is_linear:
+            d = 2.0 * swept.get((k, "gap"), c.gap) / GAP_RATIO
+            law, stiff = c.law, swept.get((k, "loading"))
+            loading = getattr(law, "loading", None)
+            if isinstance(law, Damping) and stiff is None:
+                reach = law.stiffness * d ** (law.exponent + 1.0) / (law.exponent + 1.0)
+            elif loading is not None and loading.is_linear:
+                reach = 0.5 * (loading.end_slope if stiff is None else stiff) * d * d
+            elif loading is not None and stiff is None:
+                reach = loading.energy(d)     # (NaN beyond a table's end: flagged)
+            else:
                 return None
-            crush = np.sqrt(2.0 * energy / swept.get((k, "loading"), loading.end_slope))
-            suspect |= ~(swept.get((k, "gap"), c.gap) <= 0.5 * GAP_RATIO * crush)
+            suspect |= ~(energy > reach)
     return suspect
 
 

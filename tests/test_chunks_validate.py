@@ -2,6 +2,7 @@
 only where a screen cannot clear it."""
 
 import numpy as np
+import pytest
 
 import lsc
 from lsc import chunks
@@ -79,3 +80,21 @@ def test_a_gap_too_wide_for_the_members_energy_has_the_loaders_message():
         want = [_loader_status(scene, values, j) for j in range(5)]
         assert list(status) == want
         assert any("too wide" in s for s in want) and want[0] == "ok"
+
+
+@pytest.mark.parametrize("contact", [
+    {"loading": {"table": [[0, 0], [0.02, 3000], [0.1, 25000], [0.4, 120000]]},
+     "unloading": {"restitution": 0.4}},
+    {"law": "hunt-crossley", "stiffness": 6e4, "exponent": 1.5, "restitution": 0.4}])
+def test_the_gap_rule_is_screened_on_a_curved_line_and_on_damping(contact):
+    # (no straight line: the crush the energy reaches is the loading's own, not sqrt(2E/k))
+    scene = lsc.load_scene({"units": "US", "vehicles": [{"weight": 3500, "speed": 10},
+                                                        {"weight": 3000, "speed": 0}],
+                            "contacts": [dict(contact, gap=0.05)]})
+    values = {"vehicles.0.speed": np.array([5.0, 1e-6, 2.0, 1e-6, 1e-3, 3.0]),
+              "vehicles.0.weight": np.array([3500.0, 1e-30, 1e-40, 1e-3, 1e-9, 2e3]),
+              "contacts.0.gap": np.array([0.0, 0.5, 0.9, 1e-3, 0.7, 1e-2])}
+    status = chunks.validate(scene, values, 6)
+    want = [_loader_status(scene, values, j) for j in range(6)]
+    assert list(status) == want
+    assert sum("too wide" in s for s in want) >= 2 and want[0] == want[5] == "ok"
