@@ -90,9 +90,8 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
     Numeric fields are checked against the loader's bounds by probing each path's extremes
     (every bound the loader applies to one field is an interval); cross-field rules (closing
     speeds, the speeds' spread, gaps against the crush, unloading stiffer than loading) are
-    screened per member (or, where :func:`_speed_screen` cannot, each speed is probed beside
-    the scene's own). Any member a screen flags is loaded in full, so its message is exactly
-    the loader's.
+    screened per member (:func:`_speed_screen`). Any member a screen flags is loaded in full,
+    so its message is exactly the loader's.
     """
     status = np.full(n, "ok", dtype=object)
     speeds = np.tile(scene.speeds, (n, 1))
@@ -100,14 +99,11 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
         parts = _parts(path)
         if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
             speeds[:, int(parts[1])] = vals
-    # the rules on the speeds together besides the closing one (screened here, or else each
-    # speed probed beside the scene's own, which those rules hold to)
+    # the rules on the speeds together besides the closing one
     suspect = _speed_screen(scene, values, speeds)
-    alone = suspect is None
-    suspect = np.zeros(n, bool) if alone else suspect
     for path, vals in values.items():
         bad = ~np.isfinite(vals)
-        lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]), alone)
+        lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]))
         suspect |= bad | (vals < lo) | (vals > hi)
     # closing speeds (no brakes): the rear vehicle of some pair must be faster
     if not any(v.brake is not None for v in scene.vehicles):
@@ -134,10 +130,9 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
     return status
 
 
-def _valid_interval(scene: Scene, path: str, u: np.ndarray,
-                    alone: bool = True) -> tuple[float, float]:
+def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, float]:
     """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone
-    (``alone`` False: a speed beside the others closing on it, :func:`_probe`).
+    (a speed beside the others closing on it, :func:`_probe`).
 
     Every bound the loader puts on one numeric field is an interval, so bisection from an
     accepted anchor (the value nearest the base scene's own) finds its ends in O(log n) loads.
@@ -145,7 +140,7 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray,
     if u.size == 0:
         return np.inf, -np.inf
 
-    probe = (lambda value: {path: value}) if alone else _probe(scene, path)
+    probe = _probe(scene, path)
 
     def accepted(j: int) -> bool:
         try:
@@ -183,57 +178,59 @@ def _parts(path: str) -> list:
     return path.replace("[", ".").replace("]", "").split(".")
 
 
-def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray):
+def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray) -> np.ndarray:
     """(n,) bool: the members that the loader's rules on the vehicles' speeds together, besides
     the closing one, might refuse: speeds all within :data:`lsc.scene.MAGNITUDES` of each
     other, and a gap wider than :data:`lsc.scene.GAP_RATIO` times the crush the relative
     kinetic energy can reach (the members whose energy is at most what the contact's loading
     absorbs up to twice that gap over the ratio: a factor 2 to spare); ``speeds`` (n, N) each
-    member's [scene units]. None where that is out of reach here (a swept path other than a
+    member's [scene units]. Where that crush is out of reach here (a swept path other than a
     vehicle's speed, mass or weight, a contact's gap or unloading, or a straight loading line's
-    stiffness): each speed is then probed beside the scene's own speeds, as every other path
-    is."""
+    stiffness), every member with a gap on that contact is flagged."""
     n = speeds.shape[0]
     masses = np.tile([v.mass for v in scene.vehicles], (n, 1))
-    swept = {}
+    swept, known = {}, True
     for path, vals in values.items():
         parts = _parts(path)
         if len(parts) < 3 or not parts[1].isdigit():
-            return None
-        if parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"], ["weight"]):
+            known = False
+        elif parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"], ["weight"]):
             if parts[2] != "speed":
                 masses[:, int(parts[1])] = vals if parts[2] == "mass" else vals / scene.g
         elif parts[0] == "contacts" and (parts[2:] in (["gap"], ["loading", "stiffness"])
                                          or parts[2] == "unloading"):
             swept[(int(parts[1]), parts[2])] = vals
         else:
-            return None
+            known = False
     with np.errstate(all="ignore"):   # (a non-finite value: flagged, NaN compares False)
         u = speeds - (np.sum(masses * speeds, axis=1, keepdims=True)
                       / np.sum(masses, axis=1, keepdims=True))
         energy = 0.5 * np.sum(masses * u * u, axis=1)
         suspect = ~(np.ptp(speeds, axis=1) >= 2 * MAGNITUDES[0])
         for k, c in enumerate(scene.contacts):
-            d = 2.0 * swept.get((k, "gap"), c.gap) / GAP_RATIO
+            gap = swept.get((k, "gap"), c.gap)
+            d = 2.0 * gap / GAP_RATIO
             law, stiff = c.law, swept.get((k, "loading"))
             loading = getattr(law, "loading", None)
-            if isinstance(law, Damping) and stiff is None:
+            if not known:
+                reach = np.where(gap > 0, np.inf, -np.inf)
+            elif isinstance(law, Damping) and stiff is None:
                 reach = law.stiffness * d ** (law.exponent + 1.0) / (law.exponent + 1.0)
             elif loading is not None and loading.is_linear:
                 reach = 0.5 * (loading.end_slope if stiff is None else stiff) * d * d
             elif loading is not None and stiff is None:
                 reach = loading.energy(d)     # (NaN beyond a table's end: flagged)
             else:
-                return None
+                reach = np.where(gap > 0, np.inf, -np.inf)
             suspect |= ~(energy > reach)
     return suspect
 
 
 def _probe(scene: Scene, path: str):
-    """``value -> {path: value, ...}``: the values that probe ``path`` alone, where
-    :func:`_speed_screen` screens the rules on the speeds together. A vehicle's speed is probed
-    with every other vehicle's set to close on it at one unit of speed per place (rear ones
-    faster): beside the scene's own speeds, a rear car's speed below the others' would be
+    """``value -> {path: value, ...}``: the values that probe ``path`` alone (the rules on the
+    speeds together are :func:`_speed_screen`'s and the closing one's). A vehicle's speed is
+    probed with every other vehicle's set to close on it at one unit of speed per place (rear
+    ones faster): beside the scene's own speeds, a rear car's speed below the others' would be
     refused by the closing rule and every member with it loaded in full. Setting the others
     can only refuse more values (a narrower interval: more members loaded in full), never
     accept one the field's own checks refuse."""

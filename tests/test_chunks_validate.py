@@ -98,3 +98,17 @@ def test_the_gap_rule_is_screened_on_a_curved_line_and_on_damping(contact):
     want = [_loader_status(scene, values, j) for j in range(6)]
     assert list(status) == want
     assert sum("too wide" in s for s in want) >= 2 and want[0] == want[5] == "ok"
+
+
+def test_the_gap_rule_with_a_swept_path_the_screen_cannot_follow():
+    # (g moves the masses of vehicles given by weight: every member with a gap loaded in full)
+    scene = lsc.load_scene({"units": "US", "vehicles": [{"weight": 3500, "speed": 10},
+                                                        {"weight": 3000, "speed": 0}],
+                            "contacts": [{"loading": {"stiffness": 2e4},
+                                          "unloading": {"restitution": 0.4}, "gap": 0.05}]})
+    values = {"vehicles.0.speed": np.array([5.0, 1e-9, 1e-6, 3.0]),
+              "g": np.array([32.2, 32.0, 32.1, 32.2])}
+    status = chunks.validate(scene, values, 4)
+    want = [_loader_status(scene, values, j) for j in range(4)]
+    assert list(status) == want
+    assert "too wide" in want[1] and want[0] == want[3] == "ok"
