@@ -27,7 +27,7 @@ import numpy as np
 from .errors import SceneError, SimulationError
 from .model import HybridModel
 from .result import METRICS
-from .scene import Scene, UnloadingStiffness
+from .scene import GAP_RATIO, MAGNITUDES, Damping, Scene, UnloadingStiffness
 from . import parameters, solvers
 
 __all__ = ["Task", "solve_task", "run_tasks", "task_size", "slots", "window", "is_dask",
@@ -89,21 +89,23 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
 
     Numeric fields are checked against the loader's bounds by probing each path's extremes
     (every bound the loader applies to one field is an interval); cross-field rules (closing
-    speeds, unloading stiffer than loading) are screened per member. Any member a screen flags is
-    loaded in full, so its message is exactly the loader's.
+    speeds, the speeds' spread, gaps against the crush, unloading stiffer than loading) are
+    screened per member (:func:`_speed_screen`). Any member a screen flags is loaded in full,
+    so its message is exactly the loader's.
     """
     status = np.full(n, "ok", dtype=object)
-    suspect = np.zeros(n, bool)
+    speeds = np.tile(scene.speeds, (n, 1))
+    for path, vals in values.items():
+        parts = _parts(path)
+        if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
+            speeds[:, int(parts[1])] = vals
+    # the rules on the speeds together besides the closing one
+    suspect = _speed_screen(scene, values, speeds)
     for path, vals in values.items():
         bad = ~np.isfinite(vals)
         lo, hi = _valid_interval(scene, path, np.unique(vals[~bad]))
         suspect |= bad | (vals < lo) | (vals > hi)
     # closing speeds (no brakes): the rear vehicle of some pair must be faster
-    speeds = np.tile(scene.speeds, (n, 1))
-    for path, vals in values.items():
-        parts = path.replace("[", ".").replace("]", "").split(".")
-        if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
-            speeds[:, int(parts[1])] = vals
     if not any(v.brake is not None for v in scene.vehicles):
         suspect |= ~np.any(speeds[:, :-1] - speeds[:, 1:] > 0, axis=1)
     # unloading stiffer than a linear loading line
@@ -129,7 +131,8 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
 
 
 def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, float]:
-    """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone.
+    """The range ``[lo, hi]`` of sorted values ``u`` the loader accepts for ``path`` alone
+    (a speed beside the others closing on it, :func:`_probe`).
 
     Every bound the loader puts on one numeric field is an interval, so bisection from an
     accepted anchor (the value nearest the base scene's own) finds its ends in O(log n) loads.
@@ -137,9 +140,11 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
     if u.size == 0:
         return np.inf, -np.inf
 
+    probe = _probe(scene, path)
+
     def accepted(j: int) -> bool:
         try:
-            scene.with_values({path: float(u[j])})
+            scene.with_values(probe(float(u[j])))
             return True
         except SceneError:
             return False
@@ -167,6 +172,76 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
             a, b = (mid, b) if accepted(mid) else (a, mid)
         last = a
     return float(u[first]), float(u[last])
+
+
+def _parts(path: str) -> list:
+    return path.replace("[", ".").replace("]", "").split(".")
+
+
+def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray) -> np.ndarray:
+    """(n,) bool: the members that the loader's rules on the vehicles' speeds together, besides
+    the closing one, might refuse: speeds all within :data:`lsc.scene.MAGNITUDES` of each
+    other, and a gap wider than :data:`lsc.scene.GAP_RATIO` times the crush the relative
+    kinetic energy can reach (the members whose energy is at most what the contact's loading
+    absorbs up to twice that gap over the ratio: a factor 2 to spare); ``speeds`` (n, N) each
+    member's [scene units]. Where that crush is out of reach here (a swept path other than a
+    vehicle's speed, mass or weight, a contact's gap or unloading, or a straight loading line's
+    stiffness), every member with a gap on that contact is flagged."""
+    n = speeds.shape[0]
+    masses = np.tile([v.mass for v in scene.vehicles], (n, 1))
+    swept, known = {}, True
+    for path, vals in values.items():
+        parts = _parts(path)
+        if len(parts) < 3 or not parts[1].isdigit():
+            known = False
+        elif parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"], ["weight"]):
+            if parts[2] != "speed":
+                masses[:, int(parts[1])] = vals if parts[2] == "mass" else vals / scene.g
+        elif parts[0] == "contacts" and (parts[2:] in (["gap"], ["loading", "stiffness"])
+                                         or parts[2] == "unloading"):
+            swept[(int(parts[1]), parts[2])] = vals
+        else:
+            known = False
+    with np.errstate(all="ignore"):   # (a non-finite value: flagged, NaN compares False)
+        u = speeds - (np.sum(masses * speeds, axis=1, keepdims=True)
+                      / np.sum(masses, axis=1, keepdims=True))
+        energy = 0.5 * np.sum(masses * u * u, axis=1)
+        suspect = ~(np.ptp(speeds, axis=1) >= 2 * MAGNITUDES[0])
+        for k, c in enumerate(scene.contacts):
+            gap = swept.get((k, "gap"), c.gap)
+            d = 2.0 * gap / GAP_RATIO
+            law, stiff = c.law, swept.get((k, "loading"))
+            loading = getattr(law, "loading", None)
+            if not known:
+                reach = np.where(gap > 0, np.inf, -np.inf)
+            elif isinstance(law, Damping) and stiff is None:
+                reach = law.stiffness * d ** (law.exponent + 1.0) / (law.exponent + 1.0)
+            elif loading is not None and loading.is_linear:
+                reach = 0.5 * (loading.end_slope if stiff is None else stiff) * d * d
+            elif loading is not None and stiff is None:
+                reach = loading.energy(d)     # (NaN beyond a table's end: flagged)
+            else:
+                reach = np.where(gap > 0, np.inf, -np.inf)
+            suspect |= ~(energy > reach)
+    return suspect
+
+
+def _probe(scene: Scene, path: str):
+    """``value -> {path: value, ...}``: the values that probe ``path`` alone (the rules on the
+    speeds together are :func:`_speed_screen`'s and the closing one's). A vehicle's speed is
+    probed with every other vehicle's set to close on it at one unit of speed per place (rear
+    ones faster): beside the scene's own speeds, a rear car's speed below the others' would be
+    refused by the closing rule and every member with it loaded in full. Setting the others
+    can only refuse more values (a narrower interval: more members loaded in full), never
+    accept one the field's own checks refuse."""
+    parts = _parts(path)
+    if not (len(parts) == 3 and parts[0] == "vehicles" and parts[1].isdigit()
+            and parts[2] == "speed"):
+        return lambda value: {path: value}
+    i = int(parts[1])
+    others = [j for j in range(scene.n_vehicles) if j != i]
+    return lambda value: {path: value, **{f"vehicles.{j}.speed": value + (i - j)
+                                          for j in others}}
 
 
 def empty_metrics(scene: Scene, n: int, names=None) -> dict:

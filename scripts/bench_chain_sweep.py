@@ -14,8 +14,8 @@ count and time reported too).
 
 The sweep is run in this process (``--workers 1``) and on a process pool (``--workers 2``:
 ``lsc.sweep(..., executor=ProcessPoolExecutor(2))``, chunks of :func:`lsc.chunks.task_size`
-or ``--task-size``), side by side, in wall time; in this process also in its CPU time (the
-figure to compare on a shared machine). (``lsc.sweep(..., workers=2)`` makes the same pool
+or ``--task-size``), side by side, in wall time and in CPU time (this process's, or the
+workers' summed: the figure to compare on a shared machine). (``lsc.sweep(..., workers=2)`` makes the same pool
 itself; the pool here is the script's own, to count the hand-offs in its workers.)
 
     python scripts/bench_chain_sweep.py                     # 10^5 members, subset 200
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing
+import resource
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -82,7 +83,7 @@ def _sweep(scene, values, workers: int, task_size):
     workers, this process's CPU time, (members taken on from the hand-off, their time, their
     CPU time))`` of ``lsc.sweep`` with ``workers`` processes (1: this process)."""
     shared = multiprocessing.Array("d", 6)
-    executor = None
+    executor, children = None, _children_cpu()
     if workers > 1:
         executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                                        initializer=_count_alone, initargs=(shared,))
@@ -97,7 +98,15 @@ def _sweep(scene, values, workers: int, task_size):
     finally:
         if executor is not None:
             executor.shutdown()
+    if executor is not None:     # (the workers' CPU time, theirs and not this process's)
+        cpu = _children_cpu() - children
     return res, wall, int(shared[0]), shared[1], shared[2], cpu, (int(shared[3]), *shared[4:])
+
+
+def _children_cpu() -> float:
+    """CPU time [s] of this process's ended children (a pool's workers, once shut down)."""
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
 
 
 def main() -> None:
@@ -132,11 +141,12 @@ def main() -> None:
               f"hand-off at {_batch.HANDOFF_EVENTS} events: {taken[0]}, {taken[1]:.2f} s "
               f"summed over the workers)"
               + ("" if same else "; NOT the same numbers as the first run"))
-        if workers == 1:
-            # (the CPU time of this process too: on a shared machine the wall time counts the
-            # other processes')
-            print(f"  vectorised path alone, CPU time: {cpu - cpu_alone:.2f} s: "
-                  f"{done / (cpu - cpu_alone):,.0f} members/s")
+        # (the CPU time too, of this process or summed over the workers (their start and
+        # the pool's pickling included): on a shared machine the wall time counts the other
+        # processes')
+        print(f"  vectorised path alone, CPU time{'' if workers == 1 else ' of the workers'}: "
+              f"{cpu - cpu_alone:.2f} s: {done / (cpu - cpu_alone):,.0f} members/s per "
+              "process")
         t_batch = wall if workers == 1 else t_batch
     m = min(a.subset, a.n)
     worst, where, beyond, checks = 0.0, None, set(), []
