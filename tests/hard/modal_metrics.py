@@ -80,18 +80,17 @@ def _peaks(ch: ModalChain, ct, end):
     K = ch.K
     fpk, apk = np.zeros(K), np.zeros((K, 2))
     stop = np.where(np.isnan(end), np.inf, end)
-    for t0, t1, X, (a, s) in ch.segments:
+    for t0, t1, X, (a, s, F0) in ch.segments:
         on = ~np.isnan(ct) & (ct <= t0) & (t1 <= stop)
         if not on.any():
             continue
         T = t1 - t0
-        D = _Series(ch.C @ X.c - ch.gap, ch.C @ X.p1, ch.C @ X.p2, X.u @ ch.C.T, X.w @ ch.C.T,
-                    X.omega)
+        D = ch.deformations(X)
         A = X.derivative().derivative()
         acc = {}
         for j in np.flatnonzero(on):
-            F = D[j].scaled(s[j], a[j])
-            fpk[j] = max(fpk[j], peak(F, T) if s[j] or a[j] else 0.0)
+            F = D[j].rebased(s[j], F0[j])
+            fpk[j] = max(fpk[j], peak(F, T) if s[j] or F0[j] else 0.0)
             for side in (0, 1):
                 i = j + side
                 if i not in acc:
