@@ -106,13 +106,21 @@ def metric_errors(r, a, b, closing) -> dict:
     relative to its scale in the Result ``r`` (:func:`metric_scale`); a contact's restitution, a
     ratio of speeds over its closing speed ``closing`` (K,), as its separation speed relative
     to the chain's closing speed (the delta_v rule). inf where they are NaN ("not applicable")
-    at different places."""
+    at different places. A signed peak acceleration is also held to ``b``'s extreme of the
+    other sign (the reference's ``peak_acceleration_other``) plus how much smaller that is: of
+    two extremes of one magnitude, +49.556 and -49.556 ft/s² to 1e-15 (a pair ringing
+    symmetrically), which one is the peak is rounding's."""
+    other = b.get("peak_acceleration_other") if isinstance(b, dict) else None
     a, b, out = values(a), values(b), {}
     for name in METRICS_ALL:
         if not np.array_equal(np.isnan(a[name]), np.isnan(b[name])):
             out[name] = np.inf
             continue
         d = np.abs(a[name] - b[name])
+        if other is not None and name.startswith("peak_acceleration"):
+            alt = other * (b[name] / np.where(b["peak_acceleration"] != 0,
+                                              b["peak_acceleration"], 1.0))   # (in g too)
+            d = np.minimum(d, np.abs(a[name] - alt) + np.abs(b[name]) - np.abs(alt))
         if name == "restitution":
             d = d * np.abs(closing) / closing_scale(r.scene)
         else:
