@@ -47,9 +47,9 @@ MAX_WINDOWS = 10_000
 class _Series:
     """``h(τ) = base + (c + p1 τ + p2 τ² + Σ_j u_j cos(ω_j τ) + w_j sin(ω_j τ))`` (vectorised
     over τ; ``base, c, p1, p2`` (...), ``u, w`` (n_modes, ...)): the motion of a segment is its
-    start ``base`` plus the change from it (``c = -Σ u_j`` for a motion that starts at rest
-    relative to its modes' centres), summed apart, so that the change, the accelerations and the
-    forces it gives are each rounded to their own size, not to that of the positions."""
+    start ``base`` plus the change from it (``c = -Σ_j u_j``: ``h(0) = base``), summed apart,
+    so that the change, the accelerations and the forces it gives are each rounded to their own
+    size, not to that of the positions."""
 
     def __init__(self, c, p1, p2, u, w, omega, base=0.0):
         self.c, self.p1, self.p2, self.u, self.w, self.omega = c, p1, p2, u, w, omega
