@@ -32,34 +32,41 @@ def peak(h: _Series, T: float) -> float:
 
 
 def extremes(h: _Series, T: float) -> tuple[float, float]:
-    """The largest and the smallest value of the scalar series ``h`` on ``[0, T]``."""
+    """The largest and the smallest value of the scalar series ``h`` on ``[0, T]``; the one of
+    smaller magnitude only where it is within 1e-9 of the other's, else a sample's (what matters
+    of it is whether the two tie)."""
     omax = float(np.max(h.omega, initial=0.0))
     n = max(int(np.ceil(T * PER_RADIAN * omax)), 1)
     tt = np.linspace(0.0, T, n + 1)
     g = h(tt)
-    return _largest(h, tt, g, 1.0), -_largest(h, tt, g, -1.0)
+    first = 1.0 if np.max(g) >= -np.min(g) else -1.0
+    top = _largest(h, tt, g, first)
+    other = _largest(h, tt, g, -first, (1 - 1e-9) * abs(top))
+    return (top, -other) if first > 0 else (other, -top)
 
 
-def _largest(h, tt, g, sign):
-    """The largest value of ``sign h`` (samples ``g`` at ``tt``)."""
+def _largest(h, tt, g, sign, floor=-np.inf):
+    """The largest value of ``sign h`` (samples ``g`` at ``tt``), or the largest sample where
+    it is below ``floor``."""
     best = float(np.max(sign * g))
+    bar = max(best, floor)
     hd = h.derivative()
     hdd = hd.derivative()
     B2, B3 = float(h.curvature_bound()), float(hd.curvature_bound())
     todo = [(tt[i], tt[i + 1], sign * g[i], sign * g[i + 1], 0) for i in range(len(tt) - 1)]
     while todo:
         a, b, ga, gb, depth = todo.pop()
-        if max(ga, gb) + B2 * (b - a) ** 2 / 8 <= best:
+        if max(ga, gb) + B2 * (b - a) ** 2 / 8 <= bar:
             continue
         mid = 0.5 * (a + b)
         if abs(float(hdd(mid))) > B3 * (b - a) / 2 or depth > 60:   # h' monotone on [a, b]
             da, db = float(hd(a)), float(hd(b))
             if da * db < 0:
                 val = sign * float(h(brentq(hd, a, b, xtol=1e-18, rtol=8.9e-16, maxiter=200)))
-                best = max(best, val)
+                best, bar = max(best, val), max(bar, val)
             continue
         gm = sign * float(h(mid))
-        best = max(best, gm)
+        best, bar = max(best, gm), max(bar, gm)
         todo += [(a, mid, ga, gm, depth + 1), (mid, b, gm, gb, depth + 1)]
     return best
 
