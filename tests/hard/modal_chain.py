@@ -106,10 +106,7 @@ def _eigen(m, s, free):
     over 1e12 (within 4e-15 and 4e-14 of a 40-digit eigensolve: tests/test_exact_chain.py);
     ``eigh`` of the product gives each eigenvalue only to rounding of the largest (a slow mode
     behind a 1e10 lbf/ft near-plastic line 1e-9 off, its vector 1e-6)."""
-    n = len(s) + 1
-    C = np.zeros((len(s), n))
-    C[np.arange(n - 1), np.arange(n - 1)] = 1.0
-    C[np.arange(n - 1), np.arange(1, n)] = -1.0
+    C = np.eye(len(s), len(s) + 1) - np.eye(len(s), len(s) + 1, 1)   # (D = C x - gap)
     if min(s.tolist(), default=0.0) < 0:    # (a falling piece: no real factor)
         lam, Q = np.linalg.eigh((C[:, free].T @ (s[:, None] * C[:, free])) /
                                 np.sqrt(np.multiply.outer(m, m)))
