@@ -45,18 +45,22 @@ MAX_WINDOWS = 10_000
 
 
 class _Series:
-    """``h(τ) = c + p1 τ + p2 τ² + Σ_j u_j cos(ω_j τ) + w_j sin(ω_j τ)`` (vectorised over τ;
-    ``c, p1, p2`` (...), ``u, w`` (n_modes, ...))."""
+    """``h(τ) = base + (c + p1 τ + p2 τ² + Σ_j u_j cos(ω_j τ) + w_j sin(ω_j τ))`` (vectorised
+    over τ; ``base, c, p1, p2`` (...), ``u, w`` (n_modes, ...)): the motion of a segment is its
+    start ``base`` plus the change from it (``c = -Σ_j u_j``: ``h(0) = base``), summed apart,
+    so that the change, the accelerations and the forces it gives are each rounded to their own
+    size, not to that of the positions."""
 
-    def __init__(self, c, p1, p2, u, w, omega):
+    def __init__(self, c, p1, p2, u, w, omega, base=0.0):
         self.c, self.p1, self.p2, self.u, self.w, self.omega = c, p1, p2, u, w, omega
+        self.base = base
 
     def __call__(self, tau):
         tau = np.asarray(tau, float)
         ph = np.multiply.outer(tau, self.omega)
         t = tau.reshape(tau.shape + (1,) * np.ndim(self.c))
-        return self.c + self.p1 * t + self.p2 * t ** 2 + np.cos(ph) @ self.u + \
-            np.sin(ph) @ self.w
+        return (self.c + self.p1 * t + self.p2 * t ** 2 + np.cos(ph) @ self.u +
+                np.sin(ph) @ self.w) + self.base
 
     def derivative(self):
         om = self.omega.reshape((-1,) + (1,) * (np.ndim(self.u) - 1))
@@ -65,19 +69,27 @@ class _Series:
 
     def __getitem__(self, j):
         return _Series(self.c[j], self.p1[j], self.p2[j], self.u[:, j], self.w[:, j],
-                       self.omega)
+                       self.omega, np.broadcast_to(self.base, np.shape(self.c))[j])
 
     def __neg__(self):
-        return _Series(-self.c, -self.p1, -self.p2, -self.u, -self.w, self.omega)
+        return _Series(-self.c, -self.p1, -self.p2, -self.u, -self.w, self.omega, -self.base)
 
     def __add__(self, other):
         return _Series(self.c + other.c, self.p1 + other.p1, self.p2 + other.p2,
-                       self.u + other.u, self.w + other.w, self.omega)
+                       self.u + other.u, self.w + other.w, self.omega, self.base + other.base)
 
     def scaled(self, a, b=0.0):
         """``a h + b``."""
-        return _Series(a * self.c + b, a * self.p1, a * self.p2, a * self.u, a * self.w,
-                       self.omega)
+        return _Series(a * self.c, a * self.p1, a * self.p2, a * self.u, a * self.w,
+                       self.omega, a * self.base + b)
+
+    def rebased(self, a, base):
+        """``base + a (h - h.base)``: a contact's force ``F0 + s (D - D0)`` from its deformation
+        ``D`` (``D0 = D.base``), ``F0`` the force at the start (not ``s D0`` less a line's
+        offset, which rounds to ``s`` times the positions' ulps: 1e-9 of the force on a
+        near-plastic line 1e9 lbf/ft stiff)."""
+        return _Series(a * self.c, a * self.p1, a * self.p2, a * self.u, a * self.w,
+                       self.omega, base)
 
     def curvature_bound(self):
         """A bound on ``|h''|`` for all τ."""
@@ -85,8 +97,32 @@ class _Series:
         return 2 * np.abs(self.p2) + np.sum(np.hypot(self.u, self.w) * om ** 2, axis=0)
 
 
+def _eigen(m, s, free):
+    """The modes of the free vehicles ``free`` (masses ``m``) on the contacts' slopes ``s``
+    (every contact, the stuck vehicles held): eigenvalues ``λ`` [1/s²] and orthonormal vectors
+    ``Q`` of ``M^-½ K M^-½`` (``K = Cᵀ diag(s) C`` on the free vehicles), and which modes are
+    rigid (``λ`` zero). They are the squared singular values and the left singular vectors of
+    the factor ``(diag(√s) C M^-½)ᵀ``, each to its own relative accuracy where the slopes spread
+    over 1e12 (within 4e-15 and 4e-14 of a 40-digit eigensolve: tests/test_exact_chain.py);
+    ``eigh`` of the product gives each eigenvalue only to rounding of the largest (a slow mode
+    behind a 1e10 lbf/ft near-plastic line 1e-9 off, its vector 1e-6)."""
+    C = np.eye(len(s), len(s) + 1) - np.eye(len(s), len(s) + 1, 1)   # (D = C x - gap)
+    if min(s.tolist(), default=0.0) < 0:    # (a falling piece: no real factor)
+        lam, Q = np.linalg.eigh((C[:, free].T @ (s[:, None] * C[:, free])) /
+                                np.sqrt(np.multiply.outer(m, m)))
+        rigid = np.abs(lam) <= 1e-10 * max(float(np.max(np.abs(lam))), 1e-300)
+        return np.where(rigid, 0.0, lam), Q, rigid
+    B = np.sqrt(s)[:, None] * C[:, free] / np.sqrt(m)[None, :]
+    Q, sigma, _ = np.linalg.svd(B.T)
+    lam = np.zeros(len(free))
+    lam[:sigma.size] = sigma[:len(free)] ** 2
+    # (a zero: rounding of the largest, ~1e-32 of it; a mode: above 1e-12 of it)
+    rigid = lam <= 1e-20 * max(float(np.max(lam)), 1e-300)
+    return np.where(rigid, 0.0, lam), Q, rigid
+
+
 def _shift(h, c):
-    return _Series(h.c + c, h.p1, h.p2, h.u, h.w, h.omega)
+    return _Series(h.c, h.p1, h.p2, h.u, h.w, h.omega, h.base + c)
 
 
 class ModalChain:
@@ -169,49 +205,67 @@ class ModalChain:
                 a[j] = self.FM[j] - s[j] * self.M[j]
         return a, s
 
+    def forces(self):
+        """Each contact's force [lbf] now (K,), from its line's anchor: ``f_i + s_i (D - d_i)``
+        on a loading piece, ``F_M + s (D - M)`` unloading (exactly ``F_M`` at the max)."""
+        D = self.C @ self.x - self.gap
+        F = np.zeros(self.K)
+        for j in range(self.K):
+            if self.mode[j] == LOADING:
+                i = self.piece[j]
+                F[j] = self.f[j][i] + self.s[j][i] * (D[j] - self.d[j][i])
+            elif self.mode[j] == UNLOADING:
+                F[j] = self.FM[j] + self.FM[j] / (self.M[j] - self.perm[j]) * (D[j] - self.M[j])
+        return F
+
     def _modes(self):
-        """The segment's motion ``x(τ)`` as a _Series over the vehicles, and the force lines."""
+        """The segment's motion ``x(τ)`` as a _Series over the vehicles (its base the positions
+        now), and the force lines ``(a, s)`` with the forces now ``F0``. Each elastic mode moves
+        about its centre from an offset ``-φ/λ``, ``φ`` the modal net force now (from ``F0``:
+        not the difference of the positions' and the centre's modal coordinates, which rounds
+        to the positions' ulps times ``λ``), a rigid one accelerates at ``φ``."""
         a, s = self.lines()
-        Kmat = self.C.T @ (s[:, None] * self.C)
-        b = -self.C.T @ (a - s * self.gap) - np.where(
+        F0 = self.forces()
+        net = np.concatenate([[0.0], F0]) - np.concatenate([F0, [0.0]]) - np.where(
             self.braked & self.slide, self.mu * self.m * self.g * self.dir, 0.0)
         fr = np.flatnonzero(self.slide)
-        st = np.flatnonzero(~self.slide)
-        const, p1, p2 = self.x.copy(), np.zeros(self.N), np.zeros(self.N)
+        const, p1, p2 = np.zeros(self.N), np.zeros(self.N), np.zeros(self.N)
         U, W, omega = np.zeros((self.N, fr.size)), np.zeros((self.N, fr.size)), np.zeros(fr.size)
         if fr.size:
             mf = self.m[fr]
-            bf = b[fr] - Kmat[np.ix_(fr, st)] @ self.x[st]
             r = 1.0 / np.sqrt(mf)
-            lam, Q = np.linalg.eigh(r[:, None] * Kmat[np.ix_(fr, fr)] * r[None, :])
+            lam, Q, rigid = _eigen(mf, s, fr)
             T = r[:, None] * Q                      # x = T q
-            q0 = Q.T @ (np.sqrt(mf) * self.x[fr])
             qd0 = Q.T @ (np.sqrt(mf) * self.v[fr])
-            beta = Q.T @ (r * bf)
-            rigid = lam <= 1e-10 * max(float(np.max(lam)), 1e-300)
+            phi = Q.T @ (r * net[fr])
             omega = np.sqrt(np.where(rigid, 0.0, lam))
-            centre = np.where(rigid, 0.0, beta / np.where(rigid, 1.0, lam))
-            const[fr] = T @ np.where(rigid, q0, centre)
+            offset = np.where(rigid, 0.0, -phi / np.where(rigid, 1.0, lam))
+            const[fr] = T @ -offset
             p1[fr] = T @ np.where(rigid, qd0, 0.0)
-            p2[fr] = T @ np.where(rigid, 0.5 * beta, 0.0)
-            U[fr] = T * np.where(rigid, 0.0, q0 - centre)
+            p2[fr] = T @ np.where(rigid, 0.5 * phi, 0.0)
+            U[fr] = T * offset
             W[fr] = T * np.where(rigid, 0.0, qd0 / np.where(rigid, 1.0, omega))
-        return _Series(const, p1, p2, U.T, W.T, omega), (a, s)
+        return _Series(const, p1, p2, U.T, W.T, omega, self.x.copy()), (a, s, F0)
 
-    def _net(self, D, a, s):
+    def deformations(self, X):
+        """The contacts' deformations ``D = C x - gap`` of the motion ``X`` (a _Series)."""
+        return _Series(self.C @ X.c, self.C @ X.p1, self.C @ X.p2, X.u @ self.C.T,
+                       X.w @ self.C.T, X.omega, self.C @ X.base - self.gap)
+
+    def _net(self, D, a, s, F0):
         """Net contact force on each vehicle, as a _Series (from the deformations ``D``)."""
-        F = D.scaled(s) + _Series(a, 0 * a, 0 * a, 0 * D.u, 0 * D.w, D.omega)
+        F = D.rebased(s, F0)
         pad = _Series(np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((len(D.omega), 1)),
-                      np.zeros((len(D.omega), 1)), D.omega)
+                      np.zeros((len(D.omega), 1)), D.omega, np.zeros(1))
         cat = lambda p, q: _Series(*(np.concatenate([getattr(p, n), getattr(q, n)], axis=-1)
-                                     for n in ("c", "p1", "p2", "u", "w")), D.omega)
+                                     for n in ("c", "p1", "p2", "u", "w")), D.omega,
+                                   np.concatenate([p.base, q.base]))
         return cat(pad, F) + -cat(F, pad)
 
     def _events(self, X, lines):
         """The armed event functions ``[(key, kind, series, scale)]``; ``key``: ("c", contact)
         or ("v", vehicle)."""
-        D = _Series(self.C @ X.c - self.gap, self.C @ X.p1, self.C @ X.p2, X.u @ self.C.T,
-                    X.w @ self.C.T, X.omega)
+        D = self.deformations(X)
         lscale, vscale = self.scale * self._time(), self.scale
         out = []
         for j in range(self.K):
@@ -282,14 +336,15 @@ class ModalChain:
         if not armed:
             return none
         if omax == 0:   # no oscillation: quadratics, solved on the whole future
-            best = min(((_quadratic_first(float(h.c), float(h.p1), float(h.p2), self.scale),
+            best = min(((_quadratic_first(float(h.c + h.base), float(h.p1), float(h.p2), self.scale),
                          key, kind) for key, kind, h in armed), key=lambda b: b[0])
             return best if np.isfinite(best[0]) else none
         # every function at once, chunk by chunk (doubling) up to MAX_WINDOWS windows of two
         # periods of the slowest mode
         H = _Series(*(np.array([getattr(h, n) for _, _, h in armed]) for n in ("c", "p1", "p2")),
                     np.stack([h.u for _, _, h in armed], axis=1),
-                    np.stack([h.w for _, _, h in armed], axis=1), om)
+                    np.stack([h.w for _, _, h in armed], axis=1), om,
+                    np.array([h.base for _, _, h in armed], float))
         B = H.curvature_bound()
         g0, dh0 = H(0.0), H.derivative()(0.0)
         for e in np.flatnonzero((g0 <= 0) & (dh0 < 0))[:1]:
@@ -315,14 +370,20 @@ class ModalChain:
             t0, n = tt[-1], min(2 * n, 8192)
         raise RuntimeError(f"no event within {MAX_WINDOWS} windows")
 
-    def run(self, max_events=200):
+    def run(self, max_events=200, horizon=np.inf):
         """Final speeds (N,) (at the last separation, or at the end of the run where nothing
         separated) and the list of ``(time, index, kind)`` events; the segments
-        ``(t0, t1, X, (a, s))`` in :attr:`segments`."""
+        ``(t0, t1, X, (a, s, F0))`` in :attr:`segments`. ``horizon`` [s]: where a crash ends
+        (a contact closing only after it, at a rate of 1e-11 of the speeds, does not close)."""
         t, events, fired, v_post = 0.0, [], None, None
         while True:
             X, lines = self._modes()
             tau, key, kind = self._next(X, lines, fired)
+            if key is not None and t + tau > horizon and np.all(self.mode == OPEN) and \
+                    not np.any(self.braked & self.slide):
+                # (over at the horizon: every contact open, the next closing after it)
+                self.v_post = self.v.copy() if v_post is None else v_post
+                return self.v_post, events
             if key is None:
                 # over: every contact open and none closing, or held shut between two stuck
                 # vehicles (braked cars pressed together, friction holding the force), and no
@@ -361,8 +422,7 @@ class ModalChain:
             self.slide[i], self.dir[i] = True, np.sign(self.v[i])
             return True
         self.v[i] = 0.0
-        a, s = self.lines()
-        F = a + s * (self.C @ self.x - self.gap)
+        F = self.forces()
         net = (F[i - 1] if i > 0 else 0.0) - (F[i] if i < self.K else 0.0)
         pushed = abs(net) > self.mus[i] * self.m[i] * self.g
         self.slide[i], self.dir[i] = pushed, (np.sign(net) if pushed else 0.0)

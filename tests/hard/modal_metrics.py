@@ -27,28 +27,46 @@ BRAKE_KINDS = ("stop", "reversal", "break_away")
 
 def peak(h: _Series, T: float) -> float:
     """The value of largest magnitude (signed) of the scalar series ``h`` on ``[0, T]``."""
+    hi, lo = extremes(h, T)
+    return hi if hi >= -lo else lo
+
+
+def extremes(h: _Series, T: float) -> tuple[float, float]:
+    """The largest and the smallest value of the scalar series ``h`` on ``[0, T]``; the one of
+    smaller magnitude only where it is within 1e-9 of the other's, else a sample's (what matters
+    of it is whether the two tie)."""
     omax = float(np.max(h.omega, initial=0.0))
     n = max(int(np.ceil(T * PER_RADIAN * omax)), 1)
     tt = np.linspace(0.0, T, n + 1)
     g = h(tt)
-    best = float(g[np.argmax(np.abs(g))])
+    first = 1.0 if np.max(g) >= -np.min(g) else -1.0
+    top = _largest(h, tt, g, first)
+    other = _largest(h, tt, g, -first, (1 - 1e-9) * abs(top))
+    return (top, -other) if first > 0 else (other, -top)
+
+
+def _largest(h, tt, g, sign, floor=-np.inf):
+    """The largest value of ``sign h`` (samples ``g`` at ``tt``), or the largest sample where
+    it is below ``floor``."""
+    best = float(np.max(sign * g))
+    bar = max(best, floor)
     hd = h.derivative()
     hdd = hd.derivative()
     B2, B3 = float(h.curvature_bound()), float(hd.curvature_bound())
-    todo = [(tt[i], tt[i + 1], g[i], g[i + 1], 0) for i in range(n)]
+    todo = [(tt[i], tt[i + 1], sign * g[i], sign * g[i + 1], 0) for i in range(len(tt) - 1)]
     while todo:
         a, b, ga, gb, depth = todo.pop()
-        if max(abs(ga), abs(gb)) + B2 * (b - a) ** 2 / 8 <= abs(best):
+        if max(ga, gb) + B2 * (b - a) ** 2 / 8 <= bar:
             continue
         mid = 0.5 * (a + b)
         if abs(float(hdd(mid))) > B3 * (b - a) / 2 or depth > 60:   # h' monotone on [a, b]
             da, db = float(hd(a)), float(hd(b))
             if da * db < 0:
-                val = float(h(brentq(hd, a, b, xtol=1e-18, rtol=8.9e-16, maxiter=200)))
-                best = val if abs(val) > abs(best) else best
+                val = sign * float(h(brentq(hd, a, b, xtol=1e-18, rtol=8.9e-16, maxiter=200)))
+                best, bar = max(best, val), max(bar, val)
             continue
-        gm = float(h(mid))
-        best = gm if abs(gm) > abs(best) else best
+        gm = sign * float(h(mid))
+        best, bar = max(best, gm), max(bar, gm)
         todo += [(a, mid, ga, gm, depth + 1), (mid, b, gm, gb, depth + 1)]
     return best
 
@@ -75,29 +93,27 @@ def _first_impacts(ch: ModalChain):
 
 
 def _peaks(ch: ModalChain, ct, end):
-    """Per contact over its first impact: the peak force, and the (rear, front) accelerations
-    of largest magnitude (signed)."""
+    """Per contact over its first impact: the peak force, and the (rear, front) accelerations'
+    largest and smallest values (K, 2, 2: [..., 0] largest)."""
     K = ch.K
-    fpk, apk = np.zeros(K), np.zeros((K, 2))
+    fpk, apk = np.zeros(K), np.zeros((K, 2, 2))
     stop = np.where(np.isnan(end), np.inf, end)
-    for t0, t1, X, (a, s) in ch.segments:
+    for t0, t1, X, (a, s, F0) in ch.segments:
         on = ~np.isnan(ct) & (ct <= t0) & (t1 <= stop)
         if not on.any():
             continue
         T = t1 - t0
-        D = _Series(ch.C @ X.c - ch.gap, ch.C @ X.p1, ch.C @ X.p2, X.u @ ch.C.T, X.w @ ch.C.T,
-                    X.omega)
+        D = ch.deformations(X)
         A = X.derivative().derivative()
         acc = {}
         for j in np.flatnonzero(on):
-            F = D[j].scaled(s[j], a[j])
-            fpk[j] = max(fpk[j], peak(F, T) if s[j] or a[j] else 0.0)
+            F = D[j].rebased(s[j], F0[j])
+            fpk[j] = max(fpk[j], peak(F, T) if s[j] or F0[j] else 0.0)
             for side in (0, 1):
                 i = j + side
                 if i not in acc:
-                    acc[i] = peak(A[i], T)   # (0 for a stuck vehicle: its series is constant)
-                if abs(acc[i]) > abs(apk[j, side]):
-                    apk[j, side] = acc[i]
+                    acc[i] = extremes(A[i], T)   # (0 for a stuck vehicle: constant)
+                apk[j, side] = max(apk[j, side, 0], acc[i][0]), min(apk[j, side, 1], acc[i][1])
     return fpk, apk
 
 
@@ -124,7 +140,7 @@ def metrics(ch: ModalChain, resolution: float = 0.0) -> dict:
             for n in (j - 1, j + 1):
                 if 0 <= n < K and pushed[j] and touched[n] and ct[n] <= ct[j] <= e_end[n]:
                     eff[j] = min(eff[j], eff[n])
-    dv, acc = np.zeros(N), np.zeros(N)
+    dv, acc, other = np.zeros(N), np.zeros(N), np.zeros(N)
     for i in range(N):
         sides = [(j, i - j) for j in (i - 1, i) if 0 <= j < K and touched[j]]
         if not sides:
@@ -137,7 +153,8 @@ def metrics(ch: ModalChain, resolution: float = 0.0) -> dict:
         else:
             first = impact = sides[0]
         dv[i] = v_end[impact] - vt[first]
-        acc[i] = apk[impact]
+        hi, lo = apk[impact]
+        acc[i], other[i] = (hi, lo) if hi >= -lo else (lo, hi)
     if touched.any():
         w0 = np.min(eff[touched])
         group = touched & (eff - w0 <= tie)
@@ -154,5 +171,7 @@ def metrics(ch: ModalChain, resolution: float = 0.0) -> dict:
             "energy_absorbed": ch.ec.copy(), "energy_returned": ch.er.copy(),
             "failure_time": np.full(K, np.nan),
             # (not Result metrics: each contact's closing speed at its first touch; whether
-            # the run ended with a contact held shut between two stuck vehicles)
-            "closing_speed": closing, "held": bool(np.any(ch.mode != 0))}
+            # the run ended with a contact held shut between two stuck vehicles; each
+            # vehicle's extreme acceleration of the other sign, the peak where the two tie)
+            "closing_speed": closing, "held": bool(np.any(ch.mode != 0)),
+            "peak_acceleration_other": other}
