@@ -93,3 +93,28 @@ def test_the_batch_takes_the_same_eigenvalues(m, slope):
     batch = BatchMotion(stacked[0], zeros, zeros, stacked[1], np.zeros_like(stacked[1]), C)
     for kappa in batch.kappa:
         assert np.array_equal(np.sort(kappa), single)
+
+
+def test_the_blocks_of_coupled_vehicles_are_eigensolved_apart():
+    """``_eigen._block_eigh``: a chain whose middle contact carries no slope (tridiagonal, its
+    runs split) and a matrix coupling vehicles 0 and 2 only (the general components): each
+    block's eigenpairs are its own ``eigh``'s, one rigid mode per block left out (NaN)."""
+    from lsc.solvers.exact_chain._eigen import _block_eigh
+
+    chain = np.array([[2.0, -2.0, 0.0, 0.0], [-2.0, 2.0, 0.0, 0.0],
+                      [0.0, 0.0, 5e18, -5e18], [0.0, 0.0, -5e18, 5e18]])
+    apart = np.array([[3.0, 0.0, -3.0], [0.0, 0.0, 0.0], [-3.0, 0.0, 3.0]])
+    for A, blocks in ((chain, [[0, 1], [2, 3]]), (apart, [[0, 2], [1]])):
+        n = A.shape[0]
+        R = np.zeros((n, len(blocks)))
+        for c, b in enumerate(blocks):
+            R[b, c] = 1 / np.sqrt(len(b))
+        lam, V = _block_eigh(A, R)
+        assert np.count_nonzero(np.isnan(lam)) == len(blocks)
+        for b in blocks:
+            values, _ = np.linalg.eigh(A[np.ix_(b, b)])
+            got = np.sort(lam[b][~np.isnan(lam[b])])
+            np.testing.assert_array_equal(got, np.sort(values[np.argsort(np.abs(values))[1:]]))
+            for j in np.flatnonzero(~np.isnan(lam)):   # (A v = λ v; zero off its block)
+                np.testing.assert_allclose(A @ V[:, j], lam[j] * V[:, j], atol=1e-9 * abs(lam[j]))
+        assert np.allclose(V.T @ V, np.diag(~np.isnan(lam)), atol=1e-15)
