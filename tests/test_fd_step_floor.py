@@ -53,3 +53,15 @@ def test_the_floor_leaves_an_ordinary_step_alone():
                     metrics=["delta_v"])
     assert s.stats["steps"] == [0.5 * 1e-3]
     np.testing.assert_allclose(s.derivatives["delta_v"][:, 0], PLASTIC_DV, rtol=1e-6)
+
+
+def test_the_first_step_estimate_overflowing_is_no_warning():
+    """SciPy's first-step estimate (its norm of the derivative) overflowed inside a
+    Hunt–Crossley pulse at e = 1e-200 and a RuntimeWarning ('overflow encountered in dot')
+    reached the user beside a right answer: the plastic ΔV, (1 + e) times it."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = lsc.solve(_scene(1e-200), method="scipy")
+    np.testing.assert_allclose(r.delta_v, PLASTIC_DV, rtol=1e-9)
