@@ -19,7 +19,7 @@ import numpy as np
 
 from ...errors import SimulationError
 from ..segments import Step, build_result, event_rows, run_segments
-from ...laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING
+from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _lines, _locks
 from ._brakes import Brakes
@@ -243,7 +243,7 @@ class _Chain:
         return out
 
     # ------------------------------------------------------------------ events
-    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=(), lines={}):
+    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=(), lines=()):
         """``[(event index, Series, tolerance at the start)]`` for every armed event (``lines``:
         the narrow lines' contacts at their top, 1, or foot, 0: ``D - da`` is 0 or ``-wl``)."""
         tol_d = self._tol_d(x0)
