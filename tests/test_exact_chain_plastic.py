@@ -155,8 +155,8 @@ def test_a_pair_closing_slower_than_its_narrow_line_returns_bounces_elastically(
     # (contact 1 open all along: the pair alone; π/ω to the clock's ulps at 0.27 s)
     assert bounce.t_end - bounce.t_start == pytest.approx(math.pi / omega, rel=1e-8)
     # its peak force the spring's, sqrt(s μ) W = μ ω W, and each car's acceleration that force
-    # over its mass (they read 1427.66 lbf, above F_max, and -66.2 ft/s², the line's slope times the
-    # positions' rounding at the bounce's two ends, where the line's force is zero)
+    # over its mass (they read 1427.66 lbf, above F_max, and -66.2 ft/s², the line's slope
+    # times the positions' rounding at the bounce's two ends, where the line's force is zero)
     assert bounce.peak_force == pytest.approx(mu * omega * bounce.closing_speed, rel=1e-9)
     assert np.allclose(bounce.peak_acceleration, (-bounce.peak_force / m[0],
                                                   bounce.peak_force / m[1]), rtol=1e-9, atol=0)
