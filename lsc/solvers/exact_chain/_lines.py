@@ -56,7 +56,8 @@ def places(chain, contacts, tol_d: float) -> dict:
         elif was["hi"] < BIG:   # (another piece of its line; a locked contact's is BIG)
             place = 1 if was["seg"] > st["seg"] else 0
         else:   # (locked: lsc.locking; released at the held D_max onto its line's top)
-            lock = before[chain.K + k] if len(before) > chain.K + k else {}
+            off = getattr(getattr(chain.parts, "_locking", None), "_lock_offset", None)
+            lock = before[off + k] if off is not None else {}
             place = 1 if float(lock.get("dlock", math.nan)) == st["da"] else None
         if place is None:
             chain.unknown.setdefault(k, chain.t0)
