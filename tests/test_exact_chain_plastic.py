@@ -121,6 +121,8 @@ def test_a_pair_closing_faster_than_its_narrow_line_returns_goes_over_its_top():
     delta = 2 * left / (F_max + math.sqrt(F_max ** 2 + 2 * k * left))
     assert again.peak_force == pytest.approx(F_max + k * delta, rel=1e-13)
     assert again.peak_acceleration[0] == pytest.approx(-again.peak_force / m[0], rel=1e-12)
+    t, F = np.asarray(exact.t), np.asarray(exact.force)[:, 0]   # (the series: none above it)
+    assert np.all(F[(t >= again.t_start) & (t <= again.t_end)] <= again.peak_force)
     assert not any("rebound line" in w for w in exact.warnings)
     # against SciPy at rtol 1e-12 (which follows the line as a spring: its bounce): the first
     # impacts alike; the final speeds within twice that closing speed (SciPy returns it, the
@@ -161,6 +163,11 @@ def test_a_pair_closing_slower_than_its_narrow_line_returns_bounces_elastically(
     assert np.allclose(bounce.peak_acceleration, (-bounce.peak_force / m[0],
                                                   bounce.peak_force / m[1]), rtol=1e-9, atol=0)
     assert not any("rebound line" in w for w in exact.warnings)
+    # the sampled series too: zero at the bounce's two ends (the foot), never above its peak
+    t, F = np.asarray(exact.t), np.asarray(exact.force)[:, 0]
+    on = (t >= bounce.t_start) & (t <= bounce.t_end)
+    assert np.all(F[(t == bounce.t_start) | (t == bounce.t_end)] == 0.0)
+    assert np.all(F[on] <= bounce.peak_force)
     speeds = np.array([v["speed"] for v in scene["vehicles"]])
     assert abs(m @ exact.v_final - m @ speeds) <= 1e-14 * m @ exact.v_final
     # (SciPy at rtol 1e-12 follows contact 0's first rebound instead, which exact-chain drops:

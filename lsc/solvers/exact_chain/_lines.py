@@ -16,8 +16,9 @@ import math
 import numpy as np
 
 from ...laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING
+from ..segments import _Sampler, _values
 
-__all__ = ["force", "places", "leave", "line_rows"]
+__all__ = ["force", "places", "leave", "line_rows", "Sampler"]
 
 #: What a line's discrete state is known by (the same line: the same numbers).
 _LINE = ("mode", "seg", "da", "fa", "s", "wl")
@@ -104,3 +105,36 @@ def line_rows(lines: list, rows, segments, model):
             F, _, a = model.accelerations(y, disc, model.params)
             rows["force"][j], rows["a"][j] = np.asarray(F, float), np.asarray(a, float)
     return rows
+
+
+class Sampler(_Sampler):
+    """The series (:class:`~lsc.solvers.segments._Sampler`) with the forces of the contacts on
+    a narrow line the line's own: each segment's motion's from the line's force at its start,
+    ``F(0) + s ΔD(τ)`` (``ΔD`` the closed-form change of deformation, not the positions'), the
+    line's own at its two ends (:func:`leave`), and the accelerations ``model``'s from them;
+    ``chain``: the solved :class:`~._solve._Chain`."""
+
+    def __init__(self, model, segments, y_final, n_samples: int, chain):
+        super().__init__(model, segments, y_final, n_samples)
+        self.chain = chain
+
+    def values(self, j: int, s, tt, pp) -> dict:
+        out = _values(self.model, s, tt, pp)
+        ends = {k: f for k, f in self.chain.lines[j].items() if f[0] is not None}
+        if not ends:
+            return out
+        motion = self.chain.records[j][1]
+        t = np.asarray(tt, float) - s.t0
+        given = {}
+        for k, (f0, f1) in ends.items():
+            f = f0 + float(s.disc[k]["s"]) * motion.deformation(k, 0.0)(t)
+            f[0] = f0   # (the line's own at its ends: the first sample t0, the last t1)
+            if f1 is not None:
+                f[-1] = f1
+            given[k] = f
+        disc = [dict(st, fa=given[k], s=0.0) if k in given else st
+                for k, st in enumerate(s.disc)]
+        F, _, a = self.model.accelerations(out["y"], disc, pp)
+        out["force"] = np.broadcast_to(np.asarray(F, float), out["force"].shape)
+        out["a"] = np.broadcast_to(np.asarray(a, float), out["a"].shape)
+        return out

@@ -70,9 +70,12 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     rows = _lines.line_rows(chain.lines, rows, segments, model)
     # the peaks between the events, located exactly by the chain's own search, all segments
     # at once
-    return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
-                        stats=stats, n_samples=n_samples, y_post=totals["y_post"],
-                        peaks=chain.spans(), interior=False, rows=rows)
+    result = build_result(model, segments, events, y, disc, method="exact-chain",
+                          tolerances={}, stats=stats, n_samples=n_samples,
+                          y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
+    if any(chain.lines):   # (the series too: ._lines.Sampler)
+        result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
+    return result
 
 
 def _transitions(model):
