@@ -110,6 +110,20 @@ def test_a_pair_closing_faster_than_its_narrow_line_returns_goes_over_its_top():
     line = 2 * 1.3344309336111413e-07 ** 2 * exact.impacts[0].max_deformation  # (≥ its width)
     assert mu * W ** 2 > F_max * line
     assert again.t_end - again.t_start == pytest.approx(mu * W / F_max, rel=1e-3)
+    # its peak force where the closing energy left over the line's, μ W² / 2 - e² E_c, stops it
+    # on the loading line past D_max (F_max, slope k): F_max δ + k δ² / 2 of it, F_max + k δ
+    # (it read 2227 lbf: the rebound line's slope times the positions' rounding); the front
+    # car's acceleration that force over its mass
+    (_, _), (d1, f1), (d2, f2), (d3, f3) = SEED5_CHAIN46["contacts"][0]["loading"]["table"]
+    D_max, k = first.max_deformation, (f3 - f2) / (d3 - d2)
+    E_c = 0.5 * f1 * d1 + f1 * (d2 - d1) + 0.5 * (f2 + F_max) * (D_max - d2)
+    left = 0.5 * mu * W ** 2 - 1.3344309336111413e-07 ** 2 * E_c
+    delta = 2 * left / (F_max + math.sqrt(F_max ** 2 + 2 * k * left))
+    assert again.peak_force == pytest.approx(F_max + k * delta, rel=1e-13)
+    assert again.peak_acceleration[0] == pytest.approx(-again.peak_force / m[0], rel=1e-12)
+    t, F = np.asarray(exact.t), np.asarray(exact.force)[:, 0]   # (the series: none above it)
+    assert np.all(F[(t >= again.t_start) & (t <= again.t_end)] <= again.peak_force)
+    assert not any("rebound line" in w for w in exact.warnings)
     # against SciPy at rtol 1e-12 (which follows the line as a spring: its bounce): the first
     # impacts alike; the final speeds within twice that closing speed (SciPy returns it, the
     # reload keeps it, its new rebound below resolution dropped)
@@ -142,7 +156,18 @@ def test_a_pair_closing_slower_than_its_narrow_line_returns_bounces_elastically(
     assert mu * bounce.closing_speed ** 2 < F_max * 2 * e * e * E_c / F_max   # (μW² < s wl²)
     # (contact 1 open all along: the pair alone; π/ω to the clock's ulps at 0.27 s)
     assert bounce.t_end - bounce.t_start == pytest.approx(math.pi / omega, rel=1e-8)
-    assert any("contact 0 closed again" in w for w in exact.warnings)
+    # its peak force the spring's, sqrt(s μ) W = μ ω W, and each car's acceleration that force
+    # over its mass (they read 1427.66 lbf, above F_max, and -66.2 ft/s², the line's slope
+    # times the positions' rounding at the bounce's two ends, where the line's force is zero)
+    assert bounce.peak_force == pytest.approx(mu * omega * bounce.closing_speed, rel=1e-9)
+    assert np.allclose(bounce.peak_acceleration, (-bounce.peak_force / m[0],
+                                                  bounce.peak_force / m[1]), rtol=1e-9, atol=0)
+    assert not any("rebound line" in w for w in exact.warnings)
+    # the sampled series too: zero at the bounce's two ends (the foot), never above its peak
+    t, F = np.asarray(exact.t), np.asarray(exact.force)[:, 0]
+    on = (t >= bounce.t_start) & (t <= bounce.t_end)
+    assert np.all(F[(t == bounce.t_start) | (t == bounce.t_end)] == 0.0)
+    assert np.all(F[on] <= bounce.peak_force)
     speeds = np.array([v["speed"] for v in scene["vehicles"]])
     assert abs(m @ exact.v_final - m @ speeds) <= 1e-14 * m @ exact.v_final
     # (SciPy at rtol 1e-12 follows contact 0's first rebound instead, which exact-chain drops:

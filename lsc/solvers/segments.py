@@ -234,8 +234,12 @@ class _Sampler:
                              max(2, int(round(self.n_samples * (s.t1 - s.t0) / total)) + 1))
                  for s in segments]
         pp = _columns(self.model.params)
-        return _rows_of(self.model, [_values(self.model, s, tt, pp)
-                                     for s, tt in zip(segments, times)], times)
+        return _rows_of(self.model, [self.values(j, s, tt, pp)
+                                     for j, (s, tt) in enumerate(zip(segments, times))], times)
+
+    def values(self, j: int, s, tt, pp) -> dict:
+        """Segment ``j`` (``s``)'s :func:`_values` at times ``tt`` (a backend may change them)."""
+        return _values(self.model, s, tt, pp)
 
 
 def interior_peaks(model, segments, turns, probes: int = 33, iterations: int = 40) -> list:

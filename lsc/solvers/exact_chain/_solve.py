@@ -18,10 +18,10 @@ import time
 import numpy as np
 
 from ...errors import SimulationError
-from ..segments import Step, build_result, run_segments
+from ..segments import Step, build_result, event_rows, run_segments
 from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
-from . import _locks
+from . import _lines, _locks
 from ._brakes import Brakes
 from ._locks import LockTransitions
 from ._modes import Motion, Shape, deformation_map
@@ -61,16 +61,21 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": time.perf_counter() - start, **({"warnings": notes} if notes else {})}
     if isinstance(transitions, LockTransitions):
-        # (the locking model's forces, locked ones included, at the event points: the rows
-        # built by build_result from the segments, not the plain law's of _Chain.rows)
-        model, rows = transitions._locking, None
+        # (the locking model's forces, locked ones included, at the event points)
+        model = transitions._locking
+        rows = event_rows(model, segments, y)
     else:
         rows = chain.rows(segments)
+    # (a narrow rebound line's force, the line's own at the end it is at: ._lines)
+    rows = _lines.line_rows(chain.lines, rows, segments, model)
     # the peaks between the events, located exactly by the chain's own search, all segments
     # at once
-    return build_result(model, segments, events, y, disc, method="exact-chain", tolerances={},
-                        stats=stats, n_samples=n_samples, y_post=totals["y_post"],
-                        peaks=chain.spans(), interior=False, rows=rows)
+    result = build_result(model, segments, events, y, disc, method="exact-chain",
+                          tolerances={}, stats=stats, n_samples=n_samples,
+                          y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
+    if any(chain.lines):   # (the series too: ._lines.Sampler)
+        result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
+    return result
 
 
 def _transitions(model):
@@ -111,7 +116,10 @@ class _Chain:
         self.parts = model   # whose events the segments search (a LockTransitions: with locks)
         self.brakes = Brakes(model) if model.brakes else None   # (._brakes)
         self.bounce = ()   # (the contacts that bounce on a narrow line this segment)
-        self.recontacts, self.t0 = {}, 0.0   # (contact: first time it closed onto one)
+        # (each segment's narrow lines, {contact: (force at its start, at its end)}; where each
+        # is at the last segment's end, 0 foot 1 top; that segment's discrete state; a
+        # narrow line's contact where its place is not known: the first time)
+        self.lines, self.places, self.before, self.unknown, self.t0 = [], {}, None, {}, 0.0
 
     def rows(self, segments) -> dict | None:
         """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
@@ -146,11 +154,14 @@ class _Chain:
         D0, W0 = (self.C @ x0 - self.gap).tolist(), (self.C @ v0).tolist()
         contacts = disc[: self.K]
         key = tuple(float(st["s"]) for st in contacts)
-        force = np.array([float(st["fa"]) + s * (D0[k] - float(st["da"]))
-                          for k, (s, st) in enumerate(zip(key, contacts))])
         self.bounce = self._bounces(contacts, W0, disc, x0, v0)
-        if self.bounce:   # (from the narrow line's foot, where its force is zero)
-            force[list(self.bounce)] = 0.0
+        # (a narrow line's contact at its top or foot: the line's force there, and its
+        # deformation relative to the line from there, not from the positions' rounding)
+        lines = _lines.places(self, contacts, self._tol_d(x0))
+        lines.update((k, 0) for k in self.bounce)   # (a bounce starts from the foot)
+        force = np.array([_lines.force(st, lines[k]) if k in lines
+                          else float(st["fa"]) + s * (D0[k] - float(st["da"]))
+                          for k, (s, st) in enumerate(zip(key, contacts))])
         if lock:
             motion = _locks.motion(self, x0, v0, np.array(key), force, lock)
         else:
@@ -159,7 +170,7 @@ class _Chain:
             if shape is None:
                 shape = self.shapes[which] = Shape(self.m, np.array(key), self.incidence, held)
             motion = Motion(self.m, x0, v0, None, force, self.incidence, shape, push)
-        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force, key)
+        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force, key, lines)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if lock and event is not None:   # (a law event at the same instant goes first)
             event = _locks.first_of_ties(self, funcs, tau, event)
@@ -185,6 +196,7 @@ class _Chain:
         self.records.append((t0, motion, force, tau,
                              self._unsearched(motion, funcs, disc, force.tolist(), key, lock)))
         self.ends.append((y0, end))
+        _lines.leave(self, lines, event, tau, disc)
 
         def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
             out = motion.state(np.asarray(tt, float) - t0)
@@ -234,8 +246,9 @@ class _Chain:
         return out
 
     # ------------------------------------------------------------------ events
-    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=()):
-        """``[(event index, Series, tolerance at the start)]`` for every armed event."""
+    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=(), lines=()):
+        """``[(event index, Series, tolerance at the start)]`` for every armed event (``lines``:
+        the narrow lines' contacts at their top, 1, or foot, 0: ``D - da`` is 0 or ``-wl``)."""
         tol_d = self._tol_d(x0)
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
         # force k tol_d drives the rate's derivatives as ω tol_d does its value)
@@ -262,9 +275,12 @@ class _Chain:
                 out.append((i, motion.closing_rate(k, W0[k]), tol_w))
                 continue
             if which == 0:     # the piece's lower end reached going down: (D - da) + wl
-                g = motion.deformation(k, (D0[k] - st["da"]) + st["wl"])
+                g = motion.deformation(k, (D0[k] - st["da"] if k not in lines else
+                                           0.0 if lines[k] else -st["wl"]) + st["wl"])
             else:              # its upper end reached going up: hi - D
-                g = motion.deformation(k, st["hi"] - D0[k], -1.0)
+                g = motion.deformation(k, st["hi"] - D0[k] if k not in lines else
+                                       st["hi"] - st["da"] + (0.0 if lines[k] else st["wl"]),
+                                       -1.0)
             if k not in leaves:
                 leaves[k] = self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w)
             tol = NOW if leaves[k] == which else tol_d
@@ -323,20 +339,17 @@ class _Chain:
         kinetic = m_rear * m_front / (m_rear + m_front) * W0[k] * abs(W0[k])
         closing = W0[k] > START_TOL * self.model.v_scale + 16 * _EPS * max(
             map(abs, v0.tolist()))
-        if closing:   # (its force records on the line are its rounding: :meth:`warnings`)
-            self.recontacts.setdefault(k, self.t0)
         if kinetic > float(st["s"]) * float(st["wl"]) ** 2:
             return 1
         return 2 if closing else 0   # (a bounce where it closes beyond the speeds' rounding)
 
     def warnings(self) -> list[str]:
-        """One warning per contact that closed again onto a rebound line narrower than the
-        start resolves (:meth:`_leaves_narrow_line`)."""
-        return [f"contact {k} closed again at t = {t:.6g} s onto its rebound line, narrower than "
-                "the positions resolve: it went over the line's top or bounced on it by the "
-                "line's energy, but the forces and accelerations recorded on that line are its "
-                "rounding (its slope times the positions' ulps)"
-                for k, t in sorted(self.recontacts.items())]
+        """One warning per contact on a rebound line narrower than the start resolves at a
+        point of it that the solve does not know (:func:`._lines.places`)."""
+        return [f"contact {k} was at t = {t:.6g} s on its rebound line, narrower than the "
+                "positions resolve, at a point of it the solve does not know (not its top nor "
+                "its foot): the forces and accelerations recorded there are its rounding (its "
+                "slope times the positions' ulps)" for k, t in sorted(self.unknown.items())]
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:

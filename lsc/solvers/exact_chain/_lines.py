@@ -1,0 +1,140 @@
+"""A rebound line narrower than a segment start resolves (exact-chain's
+:meth:`~._solve._Chain._leaves_narrow_line`): where the pair is on it, and its force there.
+
+Such a line (``hi - lo`` below the start's rounding of a deformation, a near-plastic rebound
+``e² D_max`` wide, its slope up to ``1e20`` lbf/ft) is one the positions cannot place the pair
+on: a force ``fa + s (D - da)`` from them is the positions' rounding times ``s``. The pair is at
+one of its two ends, known from how it came onto the line and which of the line's events ended
+the segment; its force there is the line's own, from the law's numbers: ``fa`` at the top (the
+anchor, ``F_max`` on a rebound from ``D_max``), zero at the foot of the bottom piece.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING
+from ..segments import _Sampler, _values
+
+__all__ = ["force", "places", "leave", "line_rows", "Sampler"]
+
+#: What a line's discrete state is known by (the same line: the same numbers).
+_LINE = ("mode", "seg", "da", "fa", "s", "wl")
+
+
+def force(st, place: int) -> float:
+    """The force [force] of unloading piece ``st`` at its top (``place`` 1: its anchor, ``fa``)
+    or at its foot (0: zero on the bottom piece, where the law separates; ``fa - s wl`` on a
+    piece above it), from the law's numbers alone."""
+    if place:
+        return float(st["fa"])
+    return 0.0 if st["seg"] <= 0 else float(st["fa"]) - float(st["s"]) * float(st["wl"])
+
+
+def places(chain, contacts, tol_d: float) -> dict:
+    """``{contact: 1 at its top, 0 at its foot}`` at the start of ``chain``'s segment for each
+    contact on a rebound line narrower than ``tol_d`` [length] (``hi - lo <= tol_d``), by the
+    way it came onto it: from loading (its max deformation) or from the piece below it, at the
+    top; from open (at its permanent set) or from the piece above, at the foot; released from
+    a lock at the held deformation its line is anchored at, at the top; on the same line as in
+    the last segment, where that one ended (:func:`leave`). A place not known (a lock released
+    inside the line; the line followed over a segment that no event of its own ended) is left
+    out, and the chain warns of it (``chain.unknown``)."""
+    out = {}
+    before = chain.before
+    for k, st in enumerate(contacts):
+        if st["mode"] != MODE_UNLOADING or st["hi"] - st["lo"] > tol_d:
+            continue
+        was = before[k] if before is not None else None
+        if was is None:
+            place = None
+        elif all(was[n] == st[n] for n in _LINE):
+            place = chain.places.get(k)
+        elif was["mode"] in (MODE_LOADING, MODE_OPEN):
+            place = 1 if was["mode"] == MODE_LOADING else 0
+        elif was["hi"] < BIG:   # (another piece of its line; a locked contact's is BIG)
+            place = 1 if was["seg"] > st["seg"] else 0
+        else:   # (locked: lsc.locking; released at the held D_max onto its line's top)
+            off = getattr(getattr(chain.parts, "_locking", None), "_lock_offset", None)
+            lock = before[off + k] if off is not None else {}
+            place = 1 if float(lock.get("dlock", math.nan)) == st["da"] else None
+        if place is None:
+            chain.unknown.setdefault(k, chain.t0)
+        else:
+            out[k] = place
+    return out
+
+
+def leave(chain, lines: dict, event, tau: float, disc) -> None:
+    """Record the segment's narrow ``lines`` (:func:`places`) on ``chain``: the line's force at
+    the end each contact starts at and at the end it ends at (the end its own event reached;
+    where it started, for a segment of no length); ``None`` where that is not known (it ended
+    inside the line)."""
+    k_end, which = chain.parts.events[event] if event is not None else (None, None)
+    ends, at = {}, {}
+    for k, place in lines.items():
+        end = which if k == k_end and which in (0, 1) else place if tau == 0.0 else None
+        if end is None:
+            chain.unknown.setdefault(k, chain.t0)
+        else:
+            at[k] = end
+        ends[k] = (force(disc[k], place), None if end is None else force(disc[k], end))
+    chain.lines.append(ends)
+    chain.places, chain.before = at, disc
+
+
+def line_rows(lines: list, rows, segments, model):
+    """``rows`` (the event points': both ends of every segment) with the forces of the contacts
+    on a narrow line the line's own (``lines``: each segment's ``{contact: (force at its start,
+    at its end)}``, :func:`leave`) and the accelerations ``model``'s from them (its clusters'
+    and brakes' terms); every other contact's force as it was, ``model``'s from the
+    positions."""
+    if rows is None:
+        return rows
+    for i, ends in enumerate(lines):
+        for j, side in ((2 * i, 0), (2 * i + 1, 1)):
+            given = {k: f[side] for k, f in ends.items() if f[side] is not None}
+            if not given:
+                continue
+            # (each such contact's force as its law's with slope 0 and anchor the line's force)
+            disc = [dict(st, fa=given[k], s=0.0) if k in given else st
+                    for k, st in enumerate(segments[i].disc)]
+            y = np.concatenate([rows["x"][j], rows["v"][j]])
+            F, _, a = model.accelerations(y, disc, model.params)
+            rows["force"][j], rows["a"][j] = np.asarray(F, float), np.asarray(a, float)
+    return rows
+
+
+class Sampler(_Sampler):
+    """The series (:class:`~lsc.solvers.segments._Sampler`) with the forces of the contacts on
+    a narrow line the line's own: each segment's motion's from the line's force at its start,
+    ``F(0) + s ΔD(τ)`` (``ΔD`` the closed-form change of deformation, not the positions'), the
+    line's own at its two ends (:func:`leave`), and the accelerations ``model``'s from them;
+    ``chain``: the solved :class:`~._solve._Chain`."""
+
+    def __init__(self, model, segments, y_final, n_samples: int, chain):
+        super().__init__(model, segments, y_final, n_samples)
+        self.chain = chain
+
+    def values(self, j: int, s, tt, pp) -> dict:
+        out = _values(self.model, s, tt, pp)
+        ends = {k: f for k, f in self.chain.lines[j].items() if f[0] is not None}
+        if not ends:
+            return out
+        motion = self.chain.records[j][1]
+        t = np.asarray(tt, float) - s.t0
+        given = {}
+        for k, (f0, f1) in ends.items():
+            f = f0 + float(s.disc[k]["s"]) * motion.deformation(k, 0.0)(t)
+            f[0] = f0   # (the line's own at its ends: the first sample t0, the last t1)
+            if f1 is not None:
+                f[-1] = f1
+            given[k] = f
+        disc = [dict(st, fa=given[k], s=0.0) if k in given else st
+                for k, st in enumerate(s.disc)]
+        F, _, a = self.model.accelerations(out["y"], disc, pp)
+        out["force"] = np.broadcast_to(np.asarray(F, float), out["force"].shape)
+        out["a"] = np.broadcast_to(np.asarray(a, float), out["a"].shape)
+        return out
