@@ -144,6 +144,24 @@ def _sequence(r, t_last):
         [(e.time, e.index, e.kind) for e in r.events], gaps), t_last), t_last)]
 
 
+def _rounding_decides(scene, sequence, t_last) -> bool:
+    """Whether moving one car's speed by 1e-14 of the fastest car's (each car in turn) changes
+    exact-chain's ``sequence`` of events up to ``t_last`` [s] (or stops it): then rounding,
+    not the physics, decides it. (The rear car alone is not enough: a six-car chain whose
+    braked car, static and sliding friction alike, stops and breaks away again and again; only
+    its own nudge, from rest, moves its break-aways, as SciPy's, 0.07 s apart by t = 3 s.)"""
+    fastest = max(abs(v["speed"]) for v in scene["vehicles"])
+    for car in range(len(scene["vehicles"])):
+        moved = copy.deepcopy(scene)
+        moved["vehicles"][car]["speed"] += 1e-14 * fastest
+        try:
+            if _sequence(lsc.solve(moved, max_events=300), t_last) != sequence:
+                return True
+        except lsc.SimulationError:
+            return True
+    return False
+
+
 @settings(max_examples=SCIPY_CASES)
 @given(chains(tables=True, e_min=0.2, pushed_shut=False, brakes=True))
 def test_braked_chains_match_the_tightest_scipy_solve(scene):
@@ -172,9 +190,7 @@ def test_braked_chains_match_the_tightest_scipy_solve(scene):
         reject()
     t_last = r.events[-1].time
     if _sequence(r, t_last) != _sequence(s, t_last):
-        moved = copy.deepcopy(scene)
-        moved["vehicles"][0]["speed"] *= 1 + 1e-14
-        if _sequence(lsc.solve(moved), t_last) != _sequence(r, t_last):
+        if _rounding_decides(scene, _sequence(r, t_last), t_last):
             reject()
         assert _sequence(r, t_last) == _sequence(s, t_last)
     closing = np.array([np.nan if m is None else m.closing_speed for m in
