@@ -96,7 +96,7 @@ def validate(scene: Scene, values: dict, n: int) -> np.ndarray:
     status = np.full(n, "ok", dtype=object)
     speeds = np.tile(scene.speeds, (n, 1))
     for path, vals in values.items():
-        parts = _parts(path)
+        parts = parameters._split(path)
         if parts[0] == "vehicles" and len(parts) == 3 and parts[2] == "speed":
             speeds[:, int(parts[1])] = vals
     # the rules on the speeds together besides the closing one
@@ -174,10 +174,6 @@ def _valid_interval(scene: Scene, path: str, u: np.ndarray) -> tuple[float, floa
     return float(u[first]), float(u[last])
 
 
-def _parts(path: str) -> list:
-    return path.replace("[", ".").replace("]", "").split(".")
-
-
 def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray) -> np.ndarray:
     """(n,) bool: the members that the loader's rules on the vehicles' speeds together, besides
     the closing one, might refuse: speeds all within :data:`lsc.scene.MAGNITUDES` of each
@@ -191,7 +187,7 @@ def _speed_screen(scene: Scene, values: dict, speeds: np.ndarray) -> np.ndarray:
     masses = np.tile([v.mass for v in scene.vehicles], (n, 1))
     swept, known = {}, True
     for path, vals in values.items():
-        parts = _parts(path)
+        parts = parameters._split(path)
         if len(parts) < 3 or not parts[1].isdigit():
             known = False
         elif parts[0] == "vehicles" and parts[2:] in (["speed"], ["mass"], ["weight"]):
@@ -234,7 +230,7 @@ def _probe(scene: Scene, path: str):
     refused by the closing rule and every member with it loaded in full. Setting the others
     can only refuse more values (a narrower interval: more members loaded in full), never
     accept one the field's own checks refuse."""
-    parts = _parts(path)
+    parts = parameters._split(path)
     if not (len(parts) == 3 and parts[0] == "vehicles" and parts[1].isdigit()
             and parts[2] == "speed"):
         return lambda value: {path: value}

@@ -91,20 +91,26 @@ def line_rows(lines: list, rows, segments, model):
     at its end)}``, :func:`leave`) and the accelerations ``model``'s from them (its clusters'
     and brakes' terms); every other contact's force as it was, ``model``'s from the
     positions."""
-    if rows is None:
+    if rows is None or not any(lines):
         return rows
     for i, ends in enumerate(lines):
         for j, side in ((2 * i, 0), (2 * i + 1, 1)):
             given = {k: f[side] for k, f in ends.items() if f[side] is not None}
-            if not given:
-                continue
-            # (each such contact's force as its law's with slope 0 and anchor the line's force)
-            disc = [dict(st, fa=given[k], s=0.0) if k in given else st
-                    for k, st in enumerate(segments[i].disc)]
-            y = np.concatenate([rows["x"][j], rows["v"][j]])
-            F, _, a = model.accelerations(y, disc, model.params)
-            rows["force"][j], rows["a"][j] = np.asarray(F, float), np.asarray(a, float)
+            if given:
+                y = np.concatenate([rows["x"][j], rows["v"][j]])
+                rows["force"][j], rows["a"][j] = _given(model, y, segments[i].disc, given,
+                                                        model.params)
     return rows
+
+
+def _given(model, y, disc, given: dict, p):
+    """``(forces, accelerations)`` of ``model`` at states ``y`` in discrete state ``disc``
+    with the forces of the contacts in ``given`` (contact -> force, a float or an array over
+    ``y``'s times) those: each such contact's law taken with slope 0 and its anchor that force;
+    every other term (the other contacts', clusters', brakes') the model's own."""
+    disc = [dict(st, fa=given[k], s=0.0) if k in given else st for k, st in enumerate(disc)]
+    F, _, a = model.accelerations(y, disc, p)
+    return np.asarray(F, float), np.asarray(a, float)
 
 
 class Sampler(_Sampler):
@@ -132,9 +138,7 @@ class Sampler(_Sampler):
             if f1 is not None:
                 f[-1] = f1
             given[k] = f
-        disc = [dict(st, fa=given[k], s=0.0) if k in given else st
-                for k, st in enumerate(s.disc)]
-        F, _, a = self.model.accelerations(out["y"], disc, pp)
-        out["force"] = np.broadcast_to(np.asarray(F, float), out["force"].shape)
-        out["a"] = np.broadcast_to(np.asarray(a, float), out["a"].shape)
+        F, a = _given(self.model, out["y"], s.disc, given, pp)
+        out["force"] = np.broadcast_to(F, out["force"].shape)
+        out["a"] = np.broadcast_to(a, out["a"].shape)
         return out

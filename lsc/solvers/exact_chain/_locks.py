@@ -149,10 +149,10 @@ def event_function(chain, motion, disc, k: int, which: int, force, W0, tol_w):
     if which == 2:
         return motion.closing_rate(k, W0[k]), tol_w
     shape = motion.shape
-    row = (shape.H[k] * np.asarray([float(st["s"]) for st in disc[: chain.K]])) @ shape.P
+    slopes = np.array([float(st["s"]) for st in disc[: chain.K]])
+    row = (shape.H[k] * slopes) @ shape.P
     c = float(shape.H[k] @ force)
     # (the rounding of the forces as lsc.locking.pressed judges a press, and a few ulps of c)
-    slopes = np.array([float(st["s"]) for st in disc[: chain.K]])
     tol = float(force_rounding(float(chain.model.force_scale()), motion.x0, slopes)) \
         + 16 * np.finfo(float).eps * abs(c)
     if which == 0:

@@ -154,10 +154,11 @@ class _Chain:
         D0, W0 = (self.C @ x0 - self.gap).tolist(), (self.C @ v0).tolist()
         contacts = disc[: self.K]
         key = tuple(float(st["s"]) for st in contacts)
-        self.bounce = self._bounces(contacts, W0, disc, x0, v0)
+        tol_d = self._tol_d(x0)
+        self.bounce = self._bounces(contacts, W0, disc, x0, v0, tol_d)
         # (a narrow line's contact at its top or foot: the line's force there, and its
         # deformation relative to the line from there, not from the positions' rounding)
-        lines = _lines.places(self, contacts, self._tol_d(x0))
+        lines = _lines.places(self, contacts, tol_d)
         lines.update((k, 0) for k in self.bounce)   # (a bounce starts from the foot)
         force = np.array([_lines.force(st, lines[k]) if k in lines
                           else float(st["fa"]) + s * (D0[k] - float(st["da"]))
@@ -170,7 +171,7 @@ class _Chain:
             if shape is None:
                 shape = self.shapes[which] = Shape(self.m, np.array(key), self.incidence, held)
             motion = Motion(self.m, x0, v0, None, force, self.incidence, shape, push)
-        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force, key, lines)
+        funcs = self._event_functions(motion, disc, D0, W0, x0, v0, force, key, lines, tol_d)
         tau, event = self._earliest(motion, funcs, horizon - t0)
         if lock and event is not None:   # (a law event at the same instant goes first)
             event = _locks.first_of_ties(self, funcs, tau, event)
@@ -246,14 +247,13 @@ class _Chain:
         return out
 
     # ------------------------------------------------------------------ events
-    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes=(), lines=()):
+    def _event_functions(self, motion, disc, D0, W0, x0, v0, force, slopes, lines, tol_d):
         """``[(event index, Series, tolerance at the start)]`` for every armed event (``lines``:
-        the narrow lines' contacts at their top, 1, or foot, 0: ``D - da`` is 0 or ``-wl``)."""
-        tol_d = self._tol_d(x0)
+        the narrow lines' contacts at their top, 1, or foot, 0: ``D - da`` is 0 or ``-wl``;
+        ``tol_d``: :meth:`_tol_d` at the start)."""
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
         # force k tol_d drives the rate's derivatives as ω tol_d does its value)
-        tol_w = START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist())) \
-            + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
+        tol_w = self._tol_v(v0) + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
         out, leaves = [], {}   # (leaves: each narrow line's way out, judged once)
         for i in self.parts.active_events(disc):
             k, which = self.parts.events[i]
@@ -291,14 +291,19 @@ class _Chain:
         """The rounding [length] of a deformation at the start (positions ``x0``)."""
         return START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
 
-    def _bounces(self, contacts, W0, disc, x0, v0) -> tuple:
+    def _tol_v(self, v0) -> float:
+        """The rounding [velocity] of a closing rate at the start (speeds ``v0``), its
+        deformation's aside."""
+        return START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist()))
+
+    def _bounces(self, contacts, W0, disc, x0, v0, tol_d) -> tuple:
         """The contacts that close onto a narrow unloading line slower than it can stop them
-        (:meth:`_leaves_narrow_line` 2): each bounces on it, elastically, from its foot."""
+        (:meth:`_leaves_narrow_line` 2): each bounces on it, elastically, from its foot
+        (``tol_d``: :meth:`_tol_d` at the start)."""
         closing = [k for k, st in enumerate(contacts)
                    if st["mode"] == MODE_UNLOADING and W0[k] > 0]
         if not closing:
             return ()
-        tol_d = self._tol_d(x0)
         return tuple(k for k in closing if self._leaves_narrow_line(
             k, contacts[k], W0, disc, x0, v0, tol_d, math.inf) == 2)
 
@@ -337,8 +342,7 @@ class _Chain:
             front += 1
         m_rear, m_front = self.m[rear: k + 1].sum(), self.m[k + 1: front + 1].sum()
         kinetic = m_rear * m_front / (m_rear + m_front) * W0[k] * abs(W0[k])
-        closing = W0[k] > START_TOL * self.model.v_scale + 16 * _EPS * max(
-            map(abs, v0.tolist()))
+        closing = W0[k] > self._tol_v(v0)
         if kinetic > float(st["s"]) * float(st["wl"]) ** 2:
             return 1
         return 2 if closing else 0   # (a bounce where it closes beyond the speeds' rounding)
