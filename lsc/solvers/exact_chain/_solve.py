@@ -85,9 +85,12 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    fast = _ScalarTransitions(model)
-    for pp, law in zip(fast._pp, model.laws):
-        pp["wres"] = float(law.params["wres"])
+    # (built once per model, kept on it as its other numbers are: it holds no state of a solve)
+    fast = model.__dict__.get("_chain_transitions")
+    if fast is None:
+        fast = model.__dict__["_chain_transitions"] = _ScalarTransitions(model)
+        for pp, law in zip(fast._pp, model.laws):
+            pp["wres"] = float(law.params["wres"])
     # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions;
     # the model's features, kept on it, name it: lsc.locking.lock_features)
     return LockTransitions(fast, locking_model(model)) if LOCK in model.features() else fast
