@@ -76,12 +76,22 @@ class Modes:
         self._inv_w = np.array([1.0 / v if k > 0 else math.inf for k, v in zip(self._kappa, w)])
 
     def basis_at(self, tau: float) -> tuple[list, list]:
-        """``S, C`` (lists, one per mode) at one time ``tau`` [s] (as :meth:`basis`)."""
+        """``S, C`` (lists, one per mode) at one time ``tau`` [s] (as :meth:`basis`, from half
+        angles, on Python floats)."""
         S, C = [], []
         for kind, w in self._kinds:
-            s, c = _mode_at(kind, w, tau)
-            S.append(s)
-            C.append(c)
+            if kind == 0:
+                S.append(tau)
+                C.append(0.5 * tau * tau)
+                continue
+            h = 0.5 * w * tau
+            try:
+                s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
+            except OverflowError:
+                s = c = math.inf
+            sw = s / w
+            S.append(2.0 * sw * c)
+            C.append(2.0 * sw * sw)
         return S, C
 
     def basis(self, tau):
@@ -154,8 +164,8 @@ class Series:
         """``g`` at times ``tau`` (a scalar, or 1-d)."""
         if isinstance(tau, float) or np.ndim(tau) == 0:
             tau, total = float(tau), 0.0
-            for kind, w, a, g, _ in self._modal():
-                s, c = _mode_at(kind, w, tau)
+            S, C = self.modes.basis_at(tau)
+            for s, c, (_, _, a, g, _) in zip(S, C, self._modal()):
                 total += a * s + g * c
             return self.c + total
         S, C = self.modes.basis(np.atleast_1d(tau))
@@ -178,8 +188,8 @@ class Series:
             return (self.c + S @ self.alpha + C @ self.gamma,
                     np.sum(self.alpha) - C @ (self.modes.kappa * self.alpha) + S @ self.gamma)
         g, dg = self.c, 0.0
-        for kind, w, a, c, k in self._modal():
-            s_j, c_j = _mode_at(kind, w, tau)
+        S, C = self.modes.basis_at(tau)
+        for s_j, c_j, (_, _, a, c, k) in zip(S, C, self._modal()):
             g += a * s_j + c * c_j
             dg += a * (1.0 - k * c_j) + c * s_j
         return g, dg
@@ -279,20 +289,6 @@ SHAPES = 4096
 #: ... and at most about this many (N, N) matrix entries in all (each Shape holds a few (N, N)
 #: and (K, N) matrices: a bound of some tens of MB for long chains).
 SHAPE_ENTRIES = 1_000_000
-
-
-def _mode_at(kind: int, w: float, tau: float) -> tuple[float, float]:
-    """``S, C`` of one mode (``kind``: 1 harmonic, 0 rigid, -1 hyperbolic; ``w`` its
-    ``sqrt|κ|`` [1/s]) at one time ``tau`` [s], from half angles (as :meth:`Modes.basis`)."""
-    if kind == 0:
-        return tau, 0.5 * tau * tau
-    h = 0.5 * w * tau
-    try:
-        s, c = (math.sin(h), math.cos(h)) if kind > 0 else (math.sinh(h), math.cosh(h))
-    except OverflowError:
-        s = c = math.inf
-    sw = s / w
-    return 2.0 * sw * c, 2.0 * sw * sw
 
 
 def _at_zero_terms(c: float, alpha: list, gamma: list, factor: list):

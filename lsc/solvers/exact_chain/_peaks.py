@@ -46,7 +46,8 @@ def basis_of(kind, w, tau, hyperbolic=None):
     modes, from half angles as :meth:`~._modes.Modes.basis` computes them. ``hyperbolic``:
     whether ``kind`` holds a hyperbolic mode, if the caller knows."""
     tau = np.asarray(tau, float)[..., None]
-    ws = np.where(kind != 0, w, 1.0)
+    rigid = kind == 0
+    ws = np.where(rigid, 1.0, w)
     h = (0.5 * ws) * tau
     if hyperbolic is None:
         hyperbolic = bool(np.less(kind, 0).any())
@@ -56,13 +57,16 @@ def basis_of(kind, w, tau, hyperbolic=None):
             s = np.where(hyper, np.sinh(h), np.sin(h))
             c = np.where(hyper, np.cosh(h), np.cos(h))
             sw = s / ws   # (inf / inf where sinh and cosh overflow)
-            S, C = 2.0 * sw * c, 2.0 * sw * sw
+            twice = 2.0 * sw
+            S, C = twice * c, twice * sw
     else:   # (finite values over ws > 0: nothing to silence)
-        s, c = np.sin(h), np.cos(h)
-        sw = s / ws
-        S, C = 2.0 * sw * c, 2.0 * sw * sw
-    rigid = kind == 0
-    return np.where(rigid, tau, S), np.where(rigid, 0.5 * tau * tau, C)
+        sw = np.sin(h) / ws
+        twice = 2.0 * sw
+        S, C = twice * np.cos(h), twice * sw
+    # (the rigid modes' S = τ, C = τ²/2 written over the others', in place)
+    np.copyto(S, tau, where=rigid)
+    np.copyto(C, 0.5 * tau * tau, where=rigid)
+    return S, C
 
 
 def segment_peaks(records, K: int):
@@ -132,7 +136,8 @@ def _peaks(records, K: int, passes):
     w = np.array([s.modes.w for s in shapes])
     kind = np.sign(kappa).astype(int)
     hyper = any(s.modes.neg.size for s in shapes)   # (a falling table piece's mode)
-    T = np.array([float(tau) for _, _, tau, _ in records])
+    ends = [float(tau) for _, _, tau, _ in records]
+    T = np.array(ends)
     times = [[] for _ in records]
     for windows in passes:
         _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hyper)
@@ -140,13 +145,15 @@ def _peaks(records, K: int, passes):
     # (every quantity at every time found in its segment and at both ends; the segments with
     # few times together)
     for group in _packed([(j, 0, len(t) + 2) for j, t in enumerate(times)], cut=False):
-        idx = [j for j, _, _ in group]
+        idx = sorted(j for j, _, _ in group)
+        # (every segment in one group, the common case: the arrays themselves, not copies)
+        sel = slice(None) if len(idx) == len(records) else idx
         width = max(n for _, _, n in group)
-        tt = np.array([[0.0, float(T[j])] + times[j] + [0.0] * (width - 2 - len(times[j]))
+        tt = np.array([[0.0, ends[j]] + times[j] + [0.0] * (width - 2 - len(times[j]))
                        for j in idx])
-        S, C = basis_of(kind[idx][:, None, :], w[idx][:, None, :], tt, hyper)     # (g, P, n)
-        vals = (c0[idx][:, :, None] + A[idx] @ np.swapaxes(S, 1, 2)
-                + G[idx] @ np.swapaxes(C, 1, 2))
+        S, C = basis_of(kind[sel][:, None, :], w[sel][:, None, :], tt, hyper)     # (g, P, n)
+        vals = (c0[sel][:, :, None] + A[sel] @ np.swapaxes(S, 1, 2)
+                + G[sel] @ np.swapaxes(C, 1, 2))
         acc = vals[:, K:]
         # (np.max and take_along_axis as the reductions and the index they wrap)
         pick = acc[np.arange(len(idx))[:, None], np.arange(acc.shape[1])[None, :],
@@ -162,25 +169,30 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hy
     extreme value (the zeros of its derivative, or the ends of intervals where it is flat);
     ``hyper``: whether some mode is hyperbolic (:func:`basis_of`)."""
     # (a segment of no length has no interior; a constant derivative is searched harmlessly)
-    which = [[q for q in shapes[j].searched.tolist() if q not in records[j][3]]
-             if records[j][2] > 0 else [] for j, _, _, _ in windows]
-    win = np.array([i for i, qs in enumerate(which) for _ in qs], dtype=int)
-    if not win.size:
+    win, seg, q = [], [], []   # (each searched row's window, segment and quantity)
+    for i, (j, _, _, _) in enumerate(windows):
+        if records[j][2] > 0:
+            for x in shapes[j].searched.tolist():
+                if x not in records[j][3]:
+                    win.append(i), seg.append(j), q.append(x)
+    if not win:
         return
-    segs, first, count, total = (np.array(x, dtype=int) for x in zip(*windows))
-    seg = segs[win]
-    q = np.array([q for qs in which for q in qs], dtype=int)
+    segs, first, count, total = (list(x) for x in zip(*windows))
+    win, seg, q, segs = (np.array(x, dtype=int) for x in (win, seg, q, segs))
     alpha = A[seg, q]
     # the derivatives (S' = 1 - κ C, C' = S): c + Σ da S + dg C
     k_seg = kappa[seg]
     dc, da, dg = alpha.sum(axis=1), G[seg, q], -k_seg * alpha
-    # each window's grid: its segment's, from the window's first interval
+    # each window's grid: its segment's, from the window's first interval (the last point of
+    # a segment's last window its end, exactly)
     Tw = T[segs]
-    step = Tw / total
-    top = int(count.max())
-    grid = np.minimum(step[:, None] * (first[:, None] + np.arange(top + 1.0)), Tw[:, None])
-    ends = first + count == total
-    grid[np.flatnonzero(ends), count[ends]] = Tw[ends]
+    step = Tw / np.array(total, float)
+    top = max(count)
+    grid = np.minimum(step[:, None] * (np.array(first, float)[:, None] + np.arange(top + 1.0)),
+                      Tw[:, None])
+    for r, (f, n, size, end) in enumerate(zip(first, count, total, Tw.tolist())):
+        if f + n == size:
+            grid[r, n] = end
     Sg, Cg = basis_of(kind[segs][:, None, :], w[segs][:, None, :], grid,
                       hyper)   # (W, top + 1, n)
     dv = dc[:, None] + (Sg[win] @ da[:, :, None])[..., 0] + (Cg[win] @ dg[:, :, None])[..., 0]
@@ -188,19 +200,23 @@ def _extremum_times(records, shapes, A, G, kappa, w, kind, T, windows, times, hy
     margin = (bound * step[win] ** 2 / 8.0)[:, None]
     left, right = dv[:, :-1], dv[:, 1:]
     change = left * right <= 0
-    valid = np.arange(top)[None, :] < count[win][:, None]
-    unclear = (change | (np.minimum(np.abs(left), np.abs(right)) <= margin)) & valid
+    unclear = change | (np.minimum(np.abs(left), np.abs(right)) <= margin)
+    if min(count) < top:   # (the windows shorter than the longest: their padding)
+        unclear &= np.arange(top)[None, :] < np.array(count)[win][:, None]
     # a derivative within rounding of zero at the start: searched from where it provably
     # keeps a sign (its first derivative clear of rounding, with a bound on the next)
     rounding = np.add.reduce(np.abs(alpha), axis=1)
     start = np.zeros(seg.size)
-    for r in np.flatnonzero(np.abs(dc) <= 64 * _EPS * rounding).tolist():
-        d = Series(float(dc[r]), da[r], dg[r], shapes[seg[r]].modes)
-        start[r] = _taylor_clear(d, float(T[seg[r]]), float(rounding[r]))
     g_seg = grid[win]
     a_t, b_t = g_seg[:, :-1], g_seg[:, 1:]
-    unclear &= b_t > start[:, None]
-    plain = unclear & change & (left != right) & (a_t >= start[:, None])
+    plain = unclear & change & (left != right)
+    flat = np.flatnonzero(np.abs(dc) <= 64 * _EPS * rounding).tolist()
+    for r in flat:
+        d = Series(float(dc[r]), da[r], dg[r], shapes[seg[r]].modes)
+        start[r] = _taylor_clear(d, float(T[seg[r]]), float(rounding[r]))
+    if flat or not step.all():   # (else every start is 0, below every interval's end)
+        unclear &= b_t > start[:, None]
+        plain &= unclear & (a_t >= start[:, None])
     r, i = np.nonzero(plain)
     if r.size > MANY:
         d = _Rows(dc[r], da[r], dg[r], kind[seg[r]], w[seg[r]], kappa[seg[r]], hyper)

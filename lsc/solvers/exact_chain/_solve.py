@@ -85,9 +85,12 @@ def _transitions(model):
     positions, as the integrators do (:data:`lsc.contact.REBOUND_RESOLUTION`)."""
     from ..exact.single import _ScalarTransitions
 
-    fast = _ScalarTransitions(model)
-    for pp, law in zip(fast._pp, model.laws):
-        pp["wres"] = float(law.params["wres"])
+    # (built once per model, kept on it as its other numbers are: it holds no state of a solve)
+    fast = model.__dict__.get("_chain_transitions")
+    if fast is None:
+        fast = model.__dict__["_chain_transitions"] = _ScalarTransitions(model)
+        for pp, law in zip(fast._pp, model.laws):
+            pp["wres"] = float(law.params["wres"])
     # (a chain whose pairs may lock: lsc.locking's rule, as SciPy's, on these transitions;
     # the model's features, kept on it, name it: lsc.locking.lock_features)
     return LockTransitions(fast, locking_model(model)) if LOCK in model.features() else fast
@@ -102,6 +105,7 @@ class _Chain:
         self.N, self.K = model.N, model.K
         self.m = np.asarray(p["m"], float)
         self.gap = np.asarray(p["gap"], float)
+        self.gaps = self.gap.tolist()
         self.C = deformation_map(self.N)
         self.incidence = -self.C.T
         # (a Python float, the same number, kept on the model: the scalar arithmetic of every
@@ -149,9 +153,12 @@ class _Chain:
             y0 = y0.copy()
             y0[[self.N + i for i in held]] = 0.0
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
-        # (the deformations and closing rates as Python floats: the same arithmetic as on
-        # NumPy's 0-d values, several times cheaper)
-        D0, W0 = (self.C @ x0 - self.gap).tolist(), (self.C @ v0).tolist()
+        # (the deformations and closing rates as Python floats, D = C x - gap and W = C v with
+        # C's rows x_k - x_(k+1): the same arithmetic as on NumPy's values, several times
+        # cheaper)
+        x, v = x0.tolist(), v0.tolist()
+        D0 = [a - b - g for a, b, g in zip(x, x[1:], self.gaps)]
+        W0 = [a - b for a, b in zip(v, v[1:])]
         contacts = disc[: self.K]
         key = tuple(float(st["s"]) for st in contacts)
         tol_d = self._tol_d(x0)
@@ -418,14 +425,14 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     ``g^(p)(0)`` is rounding where it is within :func:`start_rounding` of zero: ``tol`` [g's unit]
     the rounding of ``g(0)``, ``omega`` [1/s] the rate that turns it into that of ``g'`` and
     ``g''`` (the state's velocities and forces)."""
-    order = 2 * g.alpha.size + 1
     if abs(g.c) > tol:
         return 0.0
+    order = 2 * g.alpha.size + 1
     terms = g.each_at_zero(abs(g.c))
     next(terms)   # (g(0), within tol of zero)
     coef = g._modal()   # (kind, ω, α, γ, κ) of each mode, on floats
-    fastest = fastest_entering(tuple(x[2] for x in coef), tuple(x[3] for x in coef),
-                               tuple(x[1] for x in coef))
+    _, w, alpha, gamma, _ = zip(*coef) if coef else ((),) * 5
+    fastest = fastest_entering(alpha, gamma, w)
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
         if abs(dp) > start_rounding(tol, omega, fastest, p, size):
