@@ -37,20 +37,20 @@ def msum(x):
     return out
 
 
-def half_angle(h, inv):
+def half_angle(h, inv, out=None):
     """``S = sin(2h)/ω = 2u/(ω(1 + u²))`` and ``C = (1 - cos 2h)/ω² = S u/ω`` (``u = tan h``)
     of the half angles ``h = ωτ/2`` (``inv = 1/ω``, broadcast against ``h``; ``h`` is
-    overwritten). Both from one tangent: no cancellation near τ = 0, as from ``sin h`` and
-    ``cos h``, to a few ulps (``|u|`` stays below 1e19 for a float ``h``: ``1 + u²`` does not
-    overflow), and many times cheaper: NumPy's tangent of float64 is vectorised, its sine and
-    cosine are not."""
+    overwritten; ``out``: the arrays ``S, C`` to write). Both from one tangent: no
+    cancellation near τ = 0, as from ``sin h`` and ``cos h``, to a few ulps (``|u|`` stays
+    below 1e19 for a float ``h``: ``1 + u²`` does not overflow), and many times cheaper:
+    NumPy's tangent of float64 is vectorised, its sine and cosine are not."""
     u = np.tan(h, out=h)
     d = u * u
     d += 1.0
-    S = u * inv
+    S = np.multiply(u, inv, out=None if out is None else out[0])
     S *= 2.0
     S /= d
-    C = np.multiply(S, u, out=d)
+    C = np.multiply(S, u, out=d if out is None else out[1])
     C *= inv
     return S, C
 
@@ -63,11 +63,11 @@ def _sin_cos(h, ws):
     return two_sw * np.cos(h), two_sw * sw
 
 
-def basis(w, tau, exact=False, stacked=False):
+def basis(w, tau, exact=False):
     """``S, C`` (..., n) at times ``tau`` (...) [s] for the modes of angular frequency ``w``
     (..., n) [1/s] (0: rigid), from half angles (:func:`half_angle`; ``exact``: from their sine
     and cosine, as the single solve, for the few times whose values are kept: the states at the
-    events, each function at its own time); ``stacked``: as one array ``[S, C]`` (..., 2n).
+    events, each function at its own time; :func:`stacked_basis`: laid out for products).
     (Mode 0 is rigid in every member of a chain, the translation of the group of its first
     vehicle (:func:`_modes`): where it is, its sines are not computed.)"""
     tau = np.asarray(tau, float)[..., None]
@@ -81,23 +81,37 @@ def basis(w, tau, exact=False, stacked=False):
     if some_rigid:
         np.copyto(Se, tau, where=rigid)
         np.copyto(Ce, 0.5 * tau * tau, where=rigid)
-    if not first and not stacked:
-        return Se, Ce
-    n = w.shape[-1]
-    if stacked:
-        SC = np.empty(Se.shape[:-1] + (2 * n,))
-        S, C = SC[..., :n], SC[..., n:]
-    else:
-        S = np.empty(Se.shape[:-1] + (n,))
-        C = np.empty_like(S)
     if not first:
-        S[...], C[...] = Se, Ce
-        return SC
+        return Se, Ce
+    S = np.empty(Se.shape[:-1] + (w.shape[-1],))
+    C = np.empty_like(S)
     S[..., 0] = tau[..., 0]
     np.multiply(0.5 * tau[..., 0], tau[..., 0], out=C[..., 0])
     S[..., 1:] = Se
     C[..., 1:] = Ce
-    return SC if stacked else (S, C)
+    return S, C
+
+
+def stacked_basis(w, tau):
+    """``[S; C]`` (b, 2n, T) at times ``tau`` (b, T) [s] of each member's modes ``w`` (b, n)
+    [1/s] (:func:`basis`'s numbers, from half angles, laid out for one product per member:
+    mode by mode, each a contiguous (b, T) block)."""
+    b, n = w.shape
+    SC = np.empty((b, 2 * n, tau.shape[1]))
+    first = 1 if n > 1 and not w[:, 0].any() else 0
+    if first:   # (mode 0 rigid in every member, :func:`basis`)
+        SC[:, 0] = tau
+        np.multiply(0.5 * tau, tau, out=SC[:, n])
+    for j in range(first, n):
+        wj = w[:, j]
+        rigid = wj == 0
+        some_rigid = bool(rigid.any())
+        ws = np.where(rigid, 1.0, wj) if some_rigid else wj
+        half_angle((0.5 * ws)[:, None] * tau, (1.0 / ws)[:, None], out=(SC[:, j], SC[:, n + j]))
+        if some_rigid:
+            np.copyto(SC[:, j], tau, where=rigid[:, None])
+            np.copyto(SC[:, n + j], 0.5 * tau * tau, where=rigid[:, None])
+    return SC
 
 
 @dataclass
@@ -121,8 +135,8 @@ class Sums:
         return self.on(self.basis(tau))
 
     def basis(self, tau):
-        """``[S, C]`` (b, T, 2n) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
-        return basis(self.w[:, None, :], tau, stacked=True)
+        """``[S; C]`` (b, 2n, T) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
+        return stacked_basis(self.w, tau)
 
     @cached_property
     def coefficients(self):
@@ -130,9 +144,9 @@ class Sums:
         return np.concatenate([self.alpha, self.gamma], axis=2)
 
     def on(self, SC):
-        """``g`` (b, F, T) on the basis ``[S, C]`` (b, T, 2n) of :meth:`basis` (one product:
+        """``g`` (b, F, T) on the basis ``[S; C]`` (b, 2n, T) of :meth:`basis` (one product:
         NumPy's stacked products of small matrices cost mostly their count)."""
-        out = np.matmul(self.coefficients, np.swapaxes(SC, 1, 2))
+        out = np.matmul(self.coefficients, SC)
         out += self.c[:, :, None]
         return out
 

@@ -110,7 +110,14 @@ def _earliest(g: Sums, search, start, limit):
     which = np.full(b, -1)
     undecided = np.zeros(b, bool)
     start = np.where(search, start, np.inf)
-    g_start = np.where(search, g.each_at(np.where(search, start, 0.0)), np.inf)
+    # (a function searched from 0 starts at its constant: the series' terms vanish there; the
+    # others, and any member whose coefficients are not finite, at their value)
+    g_start = np.where(search, g.c, np.inf)
+    at = np.flatnonzero(np.any(search & (start != 0), axis=1)
+                        | ~np.all(np.isfinite(g.coefficients), axis=(1, 2)))
+    if at.size:
+        g_start[at] = np.where(search[at], g.take(at).each_at(np.where(search[at], start[at],
+                                                                       0.0)), np.inf)
     # a function at or below zero where its search starts fires there
     now = search & (g_start <= 0)
     if now.any():
@@ -181,15 +188,17 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
         vals = gg.at(tt)                                              # (m, F, steps + 1)
         ok = search[todo][:, :, None]
         s0 = start[todo][:, :, None]
-        if np.all(~ok[..., 0] | ((s0[..., 0] <= tt[:, :1]) & (s0[..., 0] < tt[:, 1:2]))):
-            # (every searched function starts at or before the window, and before its second
-            # sample: the values themselves; the others' are masked by ``ok``)
-            left, right = vals[..., :-1], vals[..., 1:]
-        else:
-            t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
-            left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
-                            vals[..., :-1])
-            right = np.where(t1 <= s0, np.inf, vals[..., 1:])
+        # (where every searched function of a member starts at or before the window, and
+        # before its second sample: the values themselves; the others' are masked by ``ok``)
+        left, right = vals[..., :-1], vals[..., 1:]
+        late = np.flatnonzero(np.any(ok[..., 0] & ((s0[..., 0] > tt[:, :1])
+                                                   | (s0[..., 0] >= tt[:, 1:2])), axis=1))
+        if late.size:
+            left, right = left.copy(), right.copy()
+            t0, t1, sl = tt[late, None, :-1], tt[late, None, 1:], s0[late]
+            left[late] = np.where(t0 < sl, np.where(t1 > sl, g_start[todo[late]][:, :, None],
+                                                    np.inf), left[late])
+            right[late] = np.where(t1 <= sl, np.inf, right[late])
         margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
