@@ -5,7 +5,7 @@ Each iteration every live member solves its own segment in closed form
 (:class:`~._batch_modes.BatchMotion`), finds its earliest event with the guarantee of
 :mod:`._roots` (:func:`~._batch_roots.earliest`, the restart rule of :func:`._solve._start`
 included: :func:`~._batch_roots.start_times`), folds the peaks between the events into its
-first-impact record (:func:`~._batch_roots.extreme_values`, :mod:`lsc.metrics`) and takes the law's
+first-impact record (:func:`~._batch_peaks.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
 contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
 Result computes them. A member that reaches :data:`HANDOFF_EVENTS` events is taken on from its
@@ -34,7 +34,8 @@ from ...result import METRICS
 from ..base import solve_alone
 from ..exact.batch import _Rows
 from ._batch_modes import BatchMotion, Sums
-from ._batch_roots import earliest, extreme_values, start_times
+from ._batch_peaks import extreme_values
+from ._batch_roots import earliest, start_times
 from ._modes import deformation_map
 from ._locks import LockTransitions
 from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
