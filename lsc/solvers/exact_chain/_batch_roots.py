@@ -302,11 +302,10 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
         Se, Ce = half_angle(half * tau, inv)
         half_tt = 0.5 * tau * tau
         S[:, :first], C[:, :first] = tau, half_tt
+        S[:, first:], C[:, first:] = Se, Ce
         if some_rigid:
-            S[:, first:] = np.where(rigid, tau, Se)
-            C[:, first:] = np.where(rigid, half_tt, Ce)
-        else:
-            S[:, first:], C[:, first:] = Se, Ce
+            np.copyto(S[:, first:], tau, where=rigid)
+            np.copyto(C[:, first:], half_tt, where=rigid)
         f = c + msum(al * S + ga * C)
         df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
@@ -328,7 +327,8 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
             done |= cycle
         back = state
         if done.any():
-            x[live[done]] = np.where(cycle, x[live], xl)[done]
+            at = live[done]
+            x[at] = np.where(cycle[done], x[at], xl[done])
             act &= ~done
             # (the brackets closed are compacted away once they are half the arrays; until
             # then they are computed on, unread)
