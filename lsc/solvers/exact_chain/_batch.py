@@ -33,7 +33,7 @@ from ...model import OVER_TOL
 from ...result import METRICS
 from ..base import solve_alone
 from ..exact.batch import _Rows
-from ._batch_modes import BatchMotion, Sums
+from ._batch_modes import BatchMotion, ModesCache, Sums
 from ._batch_peaks import extreme_values
 from ._batch_roots import earliest, start_times
 from ._modes import deformation_map
@@ -141,6 +141,7 @@ class _Batch:
         self.t_scale = model.time_scale(p=p)
         self.horizon = model.horizon(p=p)
         self.g = float(model.scene.g)
+        self.modes = ModesCache(n, self.N, self.K)
 
     # ------------------------------------------------------------------ the run
     def solve(self):
@@ -269,7 +270,9 @@ class _Batch:
         S = lambda key: np.stack([s[key] for s in st], axis=1)   # noqa: E731
         slope = S("s")
         force = S("fa") + slope * (D0 - S("da"))
-        motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C)
+        known = self.modes.get(ix, slope)
+        motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C, known)
+        self.modes.put(ix, slope, motion, ~known[2])
         omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
         g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix, omega)
         limit = self.horizon[ix] - w["t"]

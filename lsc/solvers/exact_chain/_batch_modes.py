@@ -21,7 +21,7 @@ import numpy as np
 
 from ._eigen import _factor_kappa
 
-__all__ = ["BatchMotion", "Sums", "basis", "half_angle", "msum"]
+__all__ = ["BatchMotion", "ModesCache", "Sums", "basis", "half_angle", "msum"]
 
 
 def msum(x):
@@ -186,6 +186,39 @@ class Sums:
                     self.gamma[rows, cols][:, None], self.kappa[rows], self.w[rows])
 
 
+class ModesCache:
+    """The last :data:`SLOTS` sets of modes (``κ, Q`` of :class:`BatchMotion`) of each of
+    ``n`` members of ``N`` vehicles and ``K`` contacts, by their slopes: a member's modes
+    depend on its masses and slopes only, and a contact that chatters takes few slopes over
+    and over (the same numbers as computed anew: each member's are its own LAPACK calls)."""
+
+    SLOTS = 4
+
+    def __init__(self, n: int, N: int, K: int):
+        self.slope = np.full((n, self.SLOTS, K), np.nan)    # (NaN: an empty slot)
+        self.kappa = np.zeros((n, self.SLOTS, N))
+        self.Q = np.zeros((n, self.SLOTS, N, N))
+        self.next = np.zeros(n, int)
+
+    def get(self, ix, slope):
+        """``(κ (b, N), Q (b, N, N), have (b,))`` of members ``ix`` (b,) at slopes ``slope``
+        (b, K): their modes where ``have`` (zeros elsewhere), for ``BatchMotion(known=)``."""
+        match = np.all(self.slope[ix] == slope[:, None, :], axis=2)
+        have = match.any(axis=1)
+        slot = np.argmax(match, axis=1)
+        kappa, Q = self.kappa[ix, slot], self.Q[ix, slot]
+        kappa[~have], Q[~have] = 0.0, 0.0
+        return kappa, Q, have
+
+    def put(self, ix, slope, motion: BatchMotion, new) -> None:
+        """Keep the modes of ``motion`` of the members ``ix[new]`` at ``slope``."""
+        rows = ix[new]
+        slot = self.next[rows]
+        self.slope[rows, slot] = slope[new]
+        self.kappa[rows, slot], self.Q[rows, slot] = motion.kappa[new], motion.Q[new]
+        self.next[rows] = (slot + 1) % self.SLOTS
+
+
 def _groups(slope_on: np.ndarray) -> np.ndarray:
     """(N,) the group of each vehicle (joined by contacts with a slope, ``slope_on`` (K,))."""
     return np.concatenate([[0], np.cumsum(~slope_on)])
@@ -196,21 +229,24 @@ class BatchMotion:
 
     Parameters: ``m`` (b, N) [mass]; ``x0, v0`` (b, N) [length, velocity]; ``slope, force``
     (b, K) each contact's active slope [force/length] (0: open) and force at the start
-    [force]; ``C`` (K, N) the deformation map (:func:`._modes.deformation_map`).
+    [force]; ``C`` (K, N) the deformation map (:func:`._modes.deformation_map`); ``known``,
+    optional: ``(κ (b, N), Q (b, N, N), have (b,) bool)``, the modes of the members ``have``,
+    already computed (:class:`ModesCache`).
     """
 
-    def __init__(self, m, x0, v0, slope, force, C):
+    def __init__(self, m, x0, v0, slope, force, C, known=None):
         self.x0, self.v0 = x0, v0
         b, N = m.shape
         root = np.sqrt(m)
-        kappa = np.zeros((b, N))
-        Q = np.zeros((b, N, N))
+        kappa, Q, have = known if known is not None else (np.zeros((b, N)),
+                                                          np.zeros((b, N, N)),
+                                                          np.zeros(b, bool))
         on = slope != 0
         code = on @ (1 << np.arange(on.shape[1]))
-        for pattern in np.unique(code):
-            rows = np.flatnonzero(code == pattern)
+        for pattern in np.unique(code[~have]):
+            rows = np.flatnonzero((code == pattern) & ~have)
             kappa[rows], Q[rows] = _modes(C, slope[rows], root[rows], on[rows[0]])
-        self.kappa = kappa
+        self.kappa, self.Q = kappa, Q
         self.w = np.sqrt(kappa)
         self.T = Q / root[:, :, None]                                    # Δx = T q
         f0 = force @ -C                                                  # (b, N)
@@ -218,7 +254,6 @@ class BatchMotion:
         self.b = np.einsum("bji,bj->bi", Q, f0 / root)                   # q''(0)
         self.P = np.einsum("kn,bnj->bkj", C, self.T)                     # ΔD = P q
         self.fastest = np.max(self.w, axis=1)
-        self.slowest = np.min(np.where(self.w > 0, self.w, np.inf), axis=1)
 
     def state(self, tau):
         """Positions and velocities (b, N) each at its member's time ``tau`` (b,)."""
