@@ -281,7 +281,8 @@ class _Batch:
             start = np.where(armed, start, np.nan)
             late_now = armed & (start > 0)
             if late_now.any():
-                late_now &= g.each_at(np.where(start > 0, start, 0.0)) <= 0
+                q = np.flatnonzero(late_now.any(axis=1))
+                late_now[q] &= g.take(q).each_at(np.where(start[q] > 0, start[q], 0.0)) <= 0
             tau, which, undecided = earliest(g, armed, start, limit)
         keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
         fresh = ~keep    # (left where their segment starts, untouched)
@@ -407,7 +408,7 @@ class _Batch:
         pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
         wild = (np.abs(inc) @ turns.T.astype(int)) > 0
         want = np.concatenate([turns, ((pushed > 1) | wild).T], axis=1)     # (m, K + N - 2)
-        end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
+        end = series.each_at(tau)
         bound = np.where(~loaded, 0.0, np.where(monotone, np.maximum(c[:, :K], end[:, :K]),
                                                 np.where(unloads, top_force, np.inf)))
         near = np.abs(inc) > 0

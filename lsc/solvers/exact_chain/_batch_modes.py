@@ -151,8 +151,11 @@ class Sums:
         return out
 
     def each_at(self, tau):
-        """``g`` (b, F) at one time per function ``tau`` (b, F)."""
-        S, C = basis(self.w[:, None, :], tau, exact=True)
+        """``g`` (b, F) at one time per function ``tau`` (b, F), or per member (b,)."""
+        if np.ndim(tau) == 1:     # (one basis per member)
+            S, C = (x[:, None, :] for x in basis(self.w, tau, exact=True))
+        else:
+            S, C = basis(self.w[:, None, :], tau, exact=True)
         return self.c + msum(self.alpha * S + self.gamma * C)
 
     def curvature_bound(self, T=None):

@@ -111,10 +111,11 @@ def _earliest(g: Sums, search, start, limit):
     undecided = np.zeros(b, bool)
     start = np.where(search, start, np.inf)
     # (a function searched from 0 starts at its constant: the series' terms vanish there; the
-    # others, and any member whose coefficients are not finite, at their value)
+    # others, and any member whose coefficients are not all finite (nor their sum), at their
+    # value)
     g_start = np.where(search, g.c, np.inf)
-    at = np.flatnonzero(np.any(search & (start != 0), axis=1)
-                        | ~np.all(np.isfinite(g.coefficients), axis=(1, 2)))
+    finite = np.isfinite(np.sum(g.alpha, axis=(1, 2)) + np.sum(g.gamma, axis=(1, 2)))
+    at = np.flatnonzero(np.any(search & (start != 0), axis=1) | ~finite)
     if at.size:
         g_start[at] = np.where(search[at], g.take(at).each_at(np.where(search[at], start[at],
                                                                        0.0)), np.inf)
