@@ -280,9 +280,9 @@ class _Batch:
             start = start_times(g, tol, omega, limit)
             start = np.where(armed, start, np.nan)
             late_now = armed & (start > 0)
-            if late_now.any():
-                q = np.flatnonzero(late_now.any(axis=1))
-                late_now[q] &= g.take(q).each_at(np.where(start[q] > 0, start[q], 0.0)) <= 0
+            if late_now.any():     # (each such function at its own start)
+                q, j = np.nonzero(late_now)
+                late_now[q, j] = g.take(q, j).each_at(start[q, j][:, None])[:, 0] <= 0
             tau, which, undecided = earliest(g, armed, start, limit)
         keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
         fresh = ~keep    # (left where their segment starts, untouched)

@@ -115,10 +115,9 @@ def _earliest(g: Sums, search, start, limit):
     # value)
     g_start = np.where(search, g.c, np.inf)
     finite = np.isfinite(np.sum(g.alpha, axis=(1, 2)) + np.sum(g.gamma, axis=(1, 2)))
-    at = np.flatnonzero(np.any(search & (start != 0), axis=1) | ~finite)
-    if at.size:
-        g_start[at] = np.where(search[at], g.take(at).each_at(np.where(search[at], start[at],
-                                                                       0.0)), np.inf)
+    rows, cols = np.nonzero(search & ((start != 0) | ~finite[:, None]))
+    if rows.size:
+        g_start[rows, cols] = g.take(rows, cols).each_at(start[rows, cols][:, None])[:, 0]
     # a function at or below zero where its search starts fires there
     now = search & (g_start <= 0)
     if now.any():
@@ -189,17 +188,23 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
         vals = gg.at(tt)                                              # (m, F, steps + 1)
         ok = search[todo][:, :, None]
         s0 = start[todo][:, :, None]
-        # (where every searched function of a member starts at or before the window, and
-        # before its second sample: the values themselves; the others' are masked by ``ok``)
+        # (where a searched function starts at or before the window, and before its second
+        # sample: the values themselves; the others' are masked by ``ok``; one that starts
+        # inside its first interval: its value at its start there, written over the first
+        # sample's, which nothing else reads)
         left, right = vals[..., :-1], vals[..., 1:]
-        late = np.flatnonzero(np.any(ok[..., 0] & ((s0[..., 0] > tt[:, :1])
-                                                   | (s0[..., 0] >= tt[:, 1:2])), axis=1))
-        if late.size:
-            left, right = left.copy(), right.copy()
-            t0, t1, sl = tt[late, None, :-1], tt[late, None, 1:], s0[late]
-            left[late] = np.where(t0 < sl, np.where(t1 > sl, g_start[todo[late]][:, :, None],
-                                                    np.inf), left[late])
-            right[late] = np.where(t1 <= sl, np.inf, right[late])
+        sf = s0[..., 0]
+        inside = ok[..., 0] & (sf > tt[:, :1])
+        if inside.any():
+            far = np.flatnonzero(np.any(inside & (sf >= tt[:, 1:2]), axis=1))
+            if far.size:     # (later still: the intervals before its start masked)
+                left, right = left.copy(), right.copy()
+                t0, t1, sl = tt[far, None, :-1], tt[far, None, 1:], s0[far]
+                left[far] = np.where(t0 < sl, np.where(t1 > sl, g_start[todo[far]][:, :, None],
+                                                       np.inf), left[far])
+                right[far] = np.where(t1 <= sl, np.inf, right[far])
+            at, j = np.nonzero(inside & (sf < tt[:, 1:2]))
+            left[at, j, 0] = g_start[todo[at], j]
         margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
