@@ -33,7 +33,7 @@ from ...model import OVER_TOL
 from ...result import METRICS
 from ..base import solve_alone
 from ..exact.batch import _Rows
-from ._batch_modes import BatchMotion, ModesCache, Sums
+from ._batch_modes import BatchMotion, ModesCache, Sums, mall, many, mmax
 from ._batch_peaks import extreme_values
 from ._batch_roots import earliest, start_times
 from ._modes import deformation_map
@@ -284,14 +284,14 @@ class _Batch:
                 q, j = np.nonzero(late_now)
                 late_now[q, j] = g.take(q, j).each_at(start[q, j][:, None])[:, 0] <= 0
             tau, which, undecided = earliest(g, armed, start, limit)
-        keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
+        keep = ~undecided & (which >= 0) & ~many(late_now)
         fresh = ~keep    # (left where their segment starts, untouched)
         tau = np.where(keep, tau, 0.0)
         x1, v1 = motion.state(tau)
-        keep &= np.all(np.isfinite(x1) & np.isfinite(v1), axis=1)
+        keep &= mall(np.isfinite(x1) & np.isfinite(v1))
         # the peaks of the segment, for the contacts whose first impact is ongoing
         ongoing = _metrics.ongoing(first, np)
-        look = keep & ongoing.any(axis=1)
+        look = keep & many(ongoing)
         if look.any():
             r = np.flatnonzero(look)
             # (a contact loading all along: its closing rate >= 0 up to its own zero, which
@@ -327,9 +327,9 @@ class _Batch:
         first = _metrics.event_update(first, w["t"], v1, closes, opens, np)
         # each impact (touch to separation) must be resolved by the clock (check_resolved)
         t_now = w["t"][:, None]
-        keep &= ~np.any(opens & ~_resolved(w["since"], t_now), axis=1)
+        keep &= ~many(opens & ~_resolved(w["since"], t_now))
         w["since"] = np.where(closes, t_now, np.where(opens, np.nan, w["since"]))
-        sep = opens.any(axis=1)
+        sep = many(opens)
         w["v_post"] = np.where(sep[:, None], v1, w["v_post"])
         return w, st, first, keep, fresh
 
@@ -342,11 +342,11 @@ class _Batch:
         P = motion.P
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
         length = self.v_scale[ix] * self.t_scale[ix]
-        tol_d = START_TOL * length + 16 * _EPS * np.max(np.abs(x0), axis=1)
+        tol_d = START_TOL * length + 16 * _EPS * mmax(np.abs(x0))
         # (a rate's rounding includes the deformation's through the fastest mode, as the
         # single solve's: a rounding-size k D at a touch would fire max deformation and reload
         # at one instant, over and over, up to HANDOFF_EVENTS)
-        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * mmax(np.abs(v0))
                  + omega * tol_d)
         c, alpha, gamma, armed, tol = [], [], [], [], []
         for k, s in enumerate(st):
@@ -412,9 +412,9 @@ class _Batch:
         bound = np.where(~loaded, 0.0, np.where(monotone, np.maximum(c[:, :K], end[:, :K]),
                                                 np.where(unloads, top_force, np.inf)))
         near = np.abs(inc) > 0
-        middle = np.max(np.where(near[None], bound[:, None, :], 0.0), axis=2) / m[:, 1:N - 1]
+        middle = mmax(np.where(near[None], bound[:, None, :], 0.0)) / m[:, 1:N - 1]
         want &= ~(np.concatenate([bound, middle], axis=1) <= bars)
-        search = want.any(axis=1)
+        search = many(want)
         top, bottom = np.maximum(c, end), np.minimum(c, end)
         undecided = np.zeros(r.size, bool)
         if search.any():

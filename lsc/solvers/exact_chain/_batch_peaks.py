@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums
+from ._batch_modes import Sums, mmax, mmin
 from ._batch_roots import MAX_WINDOWS, WINDOW, refine
 from ._roots import EXTREMUM_RTOL, PER_RADIAN
 
@@ -50,7 +50,7 @@ def extreme_values(g: Sums, T, largest, turns=None, bars=None):
     d = g.derivative()
     dd = d.derivative()
     Bd, Bdd = d.curvature_bound(), dd.curvature_bound()
-    w_max = np.max(g.w, axis=1)
+    w_max = mmax(g.w)
     step = np.where(w_max > 0, 1.0 / (PER_RADIAN * np.where(w_max > 0, w_max, 1.0)),
                     np.maximum(T, 1e-300) / 2)
     top = np.full((b, F), -np.inf)
@@ -69,11 +69,11 @@ def extreme_values(g: Sums, T, largest, turns=None, bars=None):
         SC = gl.basis(tt)
         vals, dv = gl.on(SC), dl.on(SC)
         if unique:
-            top[r] = np.fmax(top[r], np.max(vals, axis=2))
-            bottom[r] = np.fmin(bottom[r], np.min(vals, axis=2))
+            top[r] = np.fmax(top[r], mmax(vals))
+            bottom[r] = np.fmin(bottom[r], mmin(vals))
         else:
-            np.fmax.at(top, r, np.max(vals, axis=2))
-            np.fmin.at(bottom, r, np.min(vals, axis=2))
+            np.fmax.at(top, r, mmax(vals))
+            np.fmin.at(bottom, r, mmin(vals))
         a, c = dv[..., :-1], dv[..., 1:]
         w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
         margin = Bd[r][:, :, None] * w ** 2 / 8.0

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, half_angle, msum
+from ._batch_modes import Sums, first_true, half_angle, many, mmax, mmin, msum
 from ._roots import PER_RADIAN, TOUCH
 from ._solve import fastest_entering, start_rounding, taylor_span
 
@@ -120,18 +120,19 @@ def _earliest(g: Sums, search, start, limit):
         g_start[rows, cols] = g.take(rows, cols).each_at(start[rows, cols][:, None])[:, 0]
     # a function at or below zero where its search starts fires there
     now = search & (g_start <= 0)
+    now_any = many(now)
     if now.any():
         t_now = np.where(now, start, np.inf)
         j = np.argmin(t_now, axis=1)
-        got = now.any(axis=1)
+        got = now_any
         tau[got], which[got] = t_now[got, j[got]], j[got]
     B = g.curvature_bound()
-    rigid = g.kappa.max(axis=1) == 0
-    quad = rigid & ~now.any(axis=1)
+    rigid = mmax(g.kappa) == 0
+    quad = rigid & ~now_any
     if quad.any():
         tau[quad], which[quad] = _quadratic(g.take(quad), search[quad], start[quad], limit[quad])
-    live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
-    step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
+    live = np.flatnonzero(~now_any & ~rigid & many(search))
+    step = 1.0 / (PER_RADIAN * mmax(g.w))
     lo = np.zeros(b)
     brackets = []
     for k in range(MAX_WINDOWS):
@@ -196,7 +197,7 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
         sf = s0[..., 0]
         inside = ok[..., 0] & (sf > tt[:, :1])
         if inside.any():
-            far = np.flatnonzero(np.any(inside & (sf >= tt[:, 1:2]), axis=1))
+            far = np.flatnonzero(many(inside & (sf >= tt[:, 1:2])))
             if far.size:     # (later still: the intervals before its start masked)
                 left, right = left.copy(), right.copy()
                 t0, t1, sl = tt[far, None, :-1], tt[far, None, 1:], s0[far]
@@ -209,15 +210,15 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
         hit = cross | unclear
-        first = np.where(hit.any(axis=2), np.argmax(hit, axis=2), steps)    # (m, F)
-        i = np.min(first, axis=1)                                           # (m,)
+        first = first_true(hit, steps)                                     # (m, F)
+        i = mmin(first)                                                     # (m,)
         none = i == steps
         ic = np.minimum(i, steps - 1)
         at = (first == i[:, None]) & ~none[:, None]
         rows = np.arange(m)
         cr = at & cross[rows, :, ic]
-        deeper = (at & unclear[rows, :, ic]).any(axis=1)
-        brack = cr.any(axis=1) & ~deeper
+        deeper = many(at & unclear[rows, :, ic])
+        brack = many(cr) & ~deeper
         # an interval narrower than TOUCH of its time that the bound cannot clear is a
         # tangency, not a crossing (as :func:`._roots._hunt` decides): the search goes on
         # after it
