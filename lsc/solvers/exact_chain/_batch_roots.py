@@ -141,9 +141,11 @@ def _earliest(g: Sums, search, start, limit):
         # (windows that double from half a window, up to 128 times the first: most events
         # lie within the first few samples, and a member whose event is far away takes few)
         count = (WINDOW // 2) << min(k, 7)
-        got, cleared, stuck = _window(g.take(live), B[live], start[live], g_start[live],
-                                      lo[live], step[live], limit[live], search[live], count,
-                                      brackets, live)
+        whole = live.size == b      # (every member, in order: no copies)
+        got, cleared, stuck = _window(*((g, B, start, g_start, lo, step, limit, search) if whole
+                                        else (g.take(live), B[live], start[live], g_start[live],
+                                              lo[live], step[live], limit[live], search[live])),
+                                      count, brackets, live)
         undecided[live[stuck]] = True
         lo[live] = cleared
         live = live[~got & ~stuck & (cleared < limit[live])]
