@@ -308,16 +308,18 @@ class _Batch:
         w = dict(w, x=x1, v=v1, t=w["t"] + tau, nev=w["nev"] + 1)
         # the law's transition, contact by contact
         D, Wd = x1 @ self.C.T - self.gap[ix], v1 @ self.C.T
-        contact, kind = which // 3, which % 3
         opens = np.zeros((b, K), bool)
         closes = np.zeros((b, K), bool)
-        for k, law in enumerate(self.laws):
-            r = np.flatnonzero(keep & (contact == k))
+        # (the law called once per contact and kind of event, that kind a Python int: the law
+        # evaluates that event's transition only, not every kind's and then picks)
+        for f in range(3 * K):
+            r = np.flatnonzero(keep & (which == f))
             if not r.size:
                 continue
+            k, law = f // 3, self.laws[f // 3]
             old = {key: a[r] for key, a in st[k].items()}
             with np.errstate(all="ignore"):
-                new = self._full(law.on_event(kind[r], D[r, k], Wd[r, k], old,
+                new = self._full(law.on_event(f % 3, D[r, k], Wd[r, k], old,
                                               _subset(self.cp[k], ix[r]), np), r.size)
             for key, a in new.items():
                 st[k][key][r] = a
