@@ -40,8 +40,10 @@ MAX_TASK = 65_536
 #: Fewest members in a chunk of a batch path spread over workers, unless a slot would be left
 #: idle: a batch call has a cost that does not shrink with the chunk (the exact-chain batch's
 #: last events, a few members left each: about a second, the time of some 5,000 members),
-#: besides the scheduler's overhead.
-MIN_TASK = 16_384
+#: besides the scheduler's overhead (random 3-car chains, 50,000 members in one process:
+#: chunks of 25,000 took 12 % more CPU time than one chunk, ``scripts/bench_chain_sweep.py
+#: --task-size``; 10^5 members on 2 workers: two chunks, not four).
+MIN_TASK = 32_768
 #: Chunks per worker slot that a study is cut into when it can: enough for the last chunks to
 #: even out the load, few enough for the overhead per chunk to stay small (random 3-car
 #: chains on the exact-chain batch, 40,000 members on 2 processes: chunks of 20,000 took half

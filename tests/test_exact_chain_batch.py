@@ -531,3 +531,39 @@ def test_a_segment_the_batch_search_cannot_decide_is_taken_on_from_its_start(mon
     out = exact_chain.solve_batch(HybridModel(scene), values)
     assert alone == [] and len(taken) == 1 and 0 < taken[0] < _batch.HANDOFF_EVENTS
     assert _differing(scene, values, out) == []
+
+
+def test_the_column_reductions_are_numpys():
+    """``_batch_modes.mmax, mmin, many, mall, first_true`` (column by column over a short last
+    axis) give NumPy's reductions bit for bit, NaN and infinities included, on last axes
+    short and long (NumPy's own there)."""
+    from lsc.solvers.exact_chain._batch_modes import first_true, mall, many, mmax, mmin
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 9, 15, 16, 40):
+        x = rng.normal(size=(50, 4, n))
+        x[rng.random(x.shape) < 0.05] = np.nan
+        x[rng.random(x.shape) < 0.05] = -np.inf
+        b = rng.random(x.shape) < 0.1
+        assert np.array_equal(mmax(x), np.max(x, axis=-1), equal_nan=True), n
+        assert np.array_equal(mmin(x), np.min(x, axis=-1), equal_nan=True), n
+        assert np.array_equal(many(b), np.any(b, axis=-1)), n
+        assert np.array_equal(mall(~b), np.all(~b, axis=-1)), n
+        assert np.array_equal(first_true(b, n), np.where(b.any(-1), np.argmax(b, -1), n)), n
+        assert (~b.any(-1)).any() and b.any(-1).any()
+
+
+def test_the_stacked_basis_is_the_basis():
+    """``_batch_modes.stacked_basis`` (``[S; C]`` laid out mode by mode for the search's
+    products) holds :func:`_batch_modes.basis`'s numbers bit for bit: mode 0 rigid in every
+    member, another rigid in some, and none rigid beyond the first."""
+    from lsc.solvers.exact_chain._batch_modes import basis, stacked_basis
+    rng = np.random.default_rng(4)
+    tau = np.cumsum(rng.random((6, 9)) * 1e-3, axis=1)
+    for w in (np.c_[np.zeros(6), rng.random((6, 2)) * 1e3],
+              np.c_[np.zeros(6), [0.0, 5.0, 0.0, 7.0, 1e4, 0.0], rng.random(6) * 1e3],
+              rng.random((6, 3)) * 1e3 + 1.0):
+        S, C = basis(w[:, None, :], tau)
+        SC = stacked_basis(w, tau)
+        n = w.shape[1]
+        assert np.array_equal(SC[:, :n], np.swapaxes(S, 1, 2))
+        assert np.array_equal(SC[:, n:], np.swapaxes(C, 1, 2))

@@ -5,7 +5,7 @@ Each iteration every live member solves its own segment in closed form
 (:class:`~._batch_modes.BatchMotion`), finds its earliest event with the guarantee of
 :mod:`._roots` (:func:`~._batch_roots.earliest`, the restart rule of :func:`._solve._start`
 included: :func:`~._batch_roots.start_times`), folds the peaks between the events into its
-first-impact record (:func:`~._batch_roots.extreme_values`, :mod:`lsc.metrics`) and takes the law's
+first-impact record (:func:`~._batch_peaks.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
 contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
 Result computes them. A member that reaches :data:`HANDOFF_EVENTS` events is taken on from its
@@ -33,8 +33,9 @@ from ...model import OVER_TOL
 from ...result import METRICS
 from ..base import solve_alone
 from ..exact.batch import _Rows
-from ._batch_modes import BatchMotion, Sums
-from ._batch_roots import earliest, extreme_values, start_times
+from ._batch_modes import BatchMotion, ModesCache, Sums, mall, many, mmax
+from ._batch_peaks import extreme_values
+from ._batch_roots import earliest, start_times
 from ._modes import deformation_map
 from ._locks import LockTransitions
 from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
@@ -140,6 +141,7 @@ class _Batch:
         self.t_scale = model.time_scale(p=p)
         self.horizon = model.horizon(p=p)
         self.g = float(model.scene.g)
+        self.modes = ModesCache(n, self.N, self.K)
 
     # ------------------------------------------------------------------ the run
     def solve(self):
@@ -268,7 +270,9 @@ class _Batch:
         S = lambda key: np.stack([s[key] for s in st], axis=1)   # noqa: E731
         slope = S("s")
         force = S("fa") + slope * (D0 - S("da"))
-        motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C)
+        known = self.modes.get(ix, slope)
+        motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C, known)
+        self.modes.put(ix, slope, motion, ~known[2])
         omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
         g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix, omega)
         limit = self.horizon[ix] - w["t"]
@@ -276,17 +280,18 @@ class _Batch:
             start = start_times(g, tol, omega, limit)
             start = np.where(armed, start, np.nan)
             late_now = armed & (start > 0)
-            if late_now.any():
-                late_now &= g.each_at(np.where(start > 0, start, 0.0)) <= 0
+            if late_now.any():     # (each such function at its own start)
+                q, j = np.nonzero(late_now)
+                late_now[q, j] = g.take(q, j).each_at(start[q, j][:, None])[:, 0] <= 0
             tau, which, undecided = earliest(g, armed, start, limit)
-        keep = ~undecided & (which >= 0) & ~late_now.any(axis=1)
+        keep = ~undecided & (which >= 0) & ~many(late_now)
         fresh = ~keep    # (left where their segment starts, untouched)
         tau = np.where(keep, tau, 0.0)
         x1, v1 = motion.state(tau)
-        keep &= np.all(np.isfinite(x1) & np.isfinite(v1), axis=1)
+        keep &= mall(np.isfinite(x1) & np.isfinite(v1))
         # the peaks of the segment, for the contacts whose first impact is ongoing
         ongoing = _metrics.ongoing(first, np)
-        look = keep & ongoing.any(axis=1)
+        look = keep & many(ongoing)
         if look.any():
             r = np.flatnonzero(look)
             # (a contact loading all along: its closing rate >= 0 up to its own zero, which
@@ -303,16 +308,18 @@ class _Batch:
         w = dict(w, x=x1, v=v1, t=w["t"] + tau, nev=w["nev"] + 1)
         # the law's transition, contact by contact
         D, Wd = x1 @ self.C.T - self.gap[ix], v1 @ self.C.T
-        contact, kind = which // 3, which % 3
         opens = np.zeros((b, K), bool)
         closes = np.zeros((b, K), bool)
-        for k, law in enumerate(self.laws):
-            r = np.flatnonzero(keep & (contact == k))
+        # (the law called once per contact and kind of event, that kind a Python int: the law
+        # evaluates that event's transition only, not every kind's and then picks)
+        for f in range(3 * K):
+            r = np.flatnonzero(keep & (which == f))
             if not r.size:
                 continue
+            k, law = f // 3, self.laws[f // 3]
             old = {key: a[r] for key, a in st[k].items()}
             with np.errstate(all="ignore"):
-                new = self._full(law.on_event(kind[r], D[r, k], Wd[r, k], old,
+                new = self._full(law.on_event(f % 3, D[r, k], Wd[r, k], old,
                                               _subset(self.cp[k], ix[r]), np), r.size)
             for key, a in new.items():
                 st[k][key][r] = a
@@ -322,9 +329,9 @@ class _Batch:
         first = _metrics.event_update(first, w["t"], v1, closes, opens, np)
         # each impact (touch to separation) must be resolved by the clock (check_resolved)
         t_now = w["t"][:, None]
-        keep &= ~np.any(opens & ~_resolved(w["since"], t_now), axis=1)
+        keep &= ~many(opens & ~_resolved(w["since"], t_now))
         w["since"] = np.where(closes, t_now, np.where(opens, np.nan, w["since"]))
-        sep = opens.any(axis=1)
+        sep = many(opens)
         w["v_post"] = np.where(sep[:, None], v1, w["v_post"])
         return w, st, first, keep, fresh
 
@@ -337,11 +344,11 @@ class _Batch:
         P = motion.P
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
         length = self.v_scale[ix] * self.t_scale[ix]
-        tol_d = START_TOL * length + 16 * _EPS * np.max(np.abs(x0), axis=1)
+        tol_d = START_TOL * length + 16 * _EPS * mmax(np.abs(x0))
         # (a rate's rounding includes the deformation's through the fastest mode, as the
         # single solve's: a rounding-size k D at a touch would fire max deformation and reload
         # at one instant, over and over, up to HANDOFF_EVENTS)
-        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * np.max(np.abs(v0), axis=1)
+        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * mmax(np.abs(v0))
                  + omega * tol_d)
         c, alpha, gamma, armed, tol = [], [], [], [], []
         for k, s in enumerate(st):
@@ -403,13 +410,13 @@ class _Batch:
         pushed = np.abs(inc) @ loaded.T.astype(int)                         # (N - 2, m)
         wild = (np.abs(inc) @ turns.T.astype(int)) > 0
         want = np.concatenate([turns, ((pushed > 1) | wild).T], axis=1)     # (m, K + N - 2)
-        end = series.each_at(np.broadcast_to(tau[:, None], c.shape))
+        end = series.each_at(tau)
         bound = np.where(~loaded, 0.0, np.where(monotone, np.maximum(c[:, :K], end[:, :K]),
                                                 np.where(unloads, top_force, np.inf)))
         near = np.abs(inc) > 0
-        middle = np.max(np.where(near[None], bound[:, None, :], 0.0), axis=2) / m[:, 1:N - 1]
+        middle = mmax(np.where(near[None], bound[:, None, :], 0.0)) / m[:, 1:N - 1]
         want &= ~(np.concatenate([bound, middle], axis=1) <= bars)
-        search = want.any(axis=1)
+        search = many(want)
         top, bottom = np.maximum(c, end), np.minimum(c, end)
         undecided = np.zeros(r.size, bool)
         if search.any():

@@ -21,7 +21,8 @@ import numpy as np
 
 from ._eigen import _factor_kappa
 
-__all__ = ["BatchMotion", "Sums", "basis", "half_angle", "msum"]
+__all__ = ["BatchMotion", "ModesCache", "Sums", "basis", "half_angle", "msum", "mmax", "mmin",
+           "many", "mall", "first_true"]
 
 
 def msum(x):
@@ -37,20 +38,68 @@ def msum(x):
     return out
 
 
-def half_angle(h, inv):
+#: The longest last axis that :func:`mmax`, :func:`mmin`, :func:`many`, :func:`mall` and
+#: :func:`first_true` run through column by column (NumPy's reductions over a short last axis
+#: cost tens of nanoseconds a row: an elementwise pass per column is several times cheaper).
+SHORT = 16
+
+
+def _columns_fold(x, op, reduce):
+    n = x.shape[-1]
+    if n < 2 or n >= SHORT:
+        return reduce(x, axis=-1)
+    out = op(x[..., 0], x[..., 1])
+    for j in range(2, n):
+        op(out, x[..., j], out=out)
+    return out
+
+
+def mmax(x):
+    """``np.max(x, axis=-1)``, the same numbers (see :data:`SHORT`)."""
+    return _columns_fold(x, np.maximum, np.max)
+
+
+def mmin(x):
+    """``np.min(x, axis=-1)``, the same numbers (see :data:`SHORT`)."""
+    return _columns_fold(x, np.minimum, np.min)
+
+
+def many(x):
+    """``np.any(x, axis=-1)`` of a bool array (see :data:`SHORT`)."""
+    return _columns_fold(x, np.logical_or, np.any)
+
+
+def mall(x):
+    """``np.all(x, axis=-1)`` of a bool array (see :data:`SHORT`)."""
+    return _columns_fold(x, np.logical_and, np.all)
+
+
+def first_true(x, none: int):
+    """The index of the first True along the last axis of ``x`` (bool), ``none`` where there
+    is none (``np.where(x.any(-1), np.argmax(x, -1), none)``; see :data:`SHORT`)."""
+    n = x.shape[-1]
+    if n >= SHORT:
+        return np.where(np.any(x, axis=-1), np.argmax(x, axis=-1), none)
+    out = np.full(x.shape[:-1], none)
+    for j in range(n - 1, -1, -1):
+        out[x[..., j]] = j
+    return out
+
+
+def half_angle(h, inv, out=None):
     """``S = sin(2h)/ω = 2u/(ω(1 + u²))`` and ``C = (1 - cos 2h)/ω² = S u/ω`` (``u = tan h``)
     of the half angles ``h = ωτ/2`` (``inv = 1/ω``, broadcast against ``h``; ``h`` is
-    overwritten). Both from one tangent: no cancellation near τ = 0, as from ``sin h`` and
-    ``cos h``, to a few ulps (``|u|`` stays below 1e19 for a float ``h``: ``1 + u²`` does not
-    overflow), and many times cheaper: NumPy's tangent of float64 is vectorised, its sine and
-    cosine are not."""
+    overwritten; ``out``: the arrays ``S, C`` to write). Both from one tangent: no
+    cancellation near τ = 0, as from ``sin h`` and ``cos h``, to a few ulps (``|u|`` stays
+    below 1e19 for a float ``h``: ``1 + u²`` does not overflow), and many times cheaper:
+    NumPy's tangent of float64 is vectorised, its sine and cosine are not."""
     u = np.tan(h, out=h)
     d = u * u
     d += 1.0
-    S = u * inv
+    S = np.multiply(u, inv, out=None if out is None else out[0])
     S *= 2.0
     S /= d
-    C = np.multiply(S, u, out=d)
+    C = np.multiply(S, u, out=d if out is None else out[1])
     C *= inv
     return S, C
 
@@ -63,11 +112,11 @@ def _sin_cos(h, ws):
     return two_sw * np.cos(h), two_sw * sw
 
 
-def basis(w, tau, exact=False, stacked=False):
+def basis(w, tau, exact=False):
     """``S, C`` (..., n) at times ``tau`` (...) [s] for the modes of angular frequency ``w``
     (..., n) [1/s] (0: rigid), from half angles (:func:`half_angle`; ``exact``: from their sine
     and cosine, as the single solve, for the few times whose values are kept: the states at the
-    events, each function at its own time); ``stacked``: as one array ``[S, C]`` (..., 2n).
+    events, each function at its own time; :func:`stacked_basis`: laid out for products).
     (Mode 0 is rigid in every member of a chain, the translation of the group of its first
     vehicle (:func:`_modes`): where it is, its sines are not computed.)"""
     tau = np.asarray(tau, float)[..., None]
@@ -81,23 +130,37 @@ def basis(w, tau, exact=False, stacked=False):
     if some_rigid:
         np.copyto(Se, tau, where=rigid)
         np.copyto(Ce, 0.5 * tau * tau, where=rigid)
-    if not first and not stacked:
-        return Se, Ce
-    n = w.shape[-1]
-    if stacked:
-        SC = np.empty(Se.shape[:-1] + (2 * n,))
-        S, C = SC[..., :n], SC[..., n:]
-    else:
-        S = np.empty(Se.shape[:-1] + (n,))
-        C = np.empty_like(S)
     if not first:
-        S[...], C[...] = Se, Ce
-        return SC
+        return Se, Ce
+    S = np.empty(Se.shape[:-1] + (w.shape[-1],))
+    C = np.empty_like(S)
     S[..., 0] = tau[..., 0]
     np.multiply(0.5 * tau[..., 0], tau[..., 0], out=C[..., 0])
     S[..., 1:] = Se
     C[..., 1:] = Ce
-    return SC if stacked else (S, C)
+    return S, C
+
+
+def stacked_basis(w, tau):
+    """``[S; C]`` (b, 2n, T) at times ``tau`` (b, T) [s] of each member's modes ``w`` (b, n)
+    [1/s] (:func:`basis`'s numbers, from half angles, laid out for one product per member:
+    mode by mode, each a contiguous (b, T) block)."""
+    b, n = w.shape
+    SC = np.empty((b, 2 * n, tau.shape[1]))
+    first = 1 if n > 1 and not w[:, 0].any() else 0
+    if first:   # (mode 0 rigid in every member, :func:`basis`)
+        SC[:, 0] = tau
+        np.multiply(0.5 * tau, tau, out=SC[:, n])
+    for j in range(first, n):
+        wj = w[:, j]
+        rigid = wj == 0
+        some_rigid = bool(rigid.any())
+        ws = np.where(rigid, 1.0, wj) if some_rigid else wj
+        half_angle((0.5 * ws)[:, None] * tau, (1.0 / ws)[:, None], out=(SC[:, j], SC[:, n + j]))
+        if some_rigid:
+            np.copyto(SC[:, j], tau, where=rigid[:, None])
+            np.copyto(SC[:, n + j], 0.5 * tau * tau, where=rigid[:, None])
+    return SC
 
 
 @dataclass
@@ -121,8 +184,8 @@ class Sums:
         return self.on(self.basis(tau))
 
     def basis(self, tau):
-        """``[S, C]`` (b, T, 2n) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
-        return basis(self.w[:, None, :], tau, stacked=True)
+        """``[S; C]`` (b, 2n, T) at times ``tau`` (b, T) of each member (for :meth:`on`)."""
+        return stacked_basis(self.w, tau)
 
     @cached_property
     def coefficients(self):
@@ -130,15 +193,18 @@ class Sums:
         return np.concatenate([self.alpha, self.gamma], axis=2)
 
     def on(self, SC):
-        """``g`` (b, F, T) on the basis ``[S, C]`` (b, T, 2n) of :meth:`basis` (one product:
+        """``g`` (b, F, T) on the basis ``[S; C]`` (b, 2n, T) of :meth:`basis` (one product:
         NumPy's stacked products of small matrices cost mostly their count)."""
-        out = np.matmul(self.coefficients, np.swapaxes(SC, 1, 2))
+        out = np.matmul(self.coefficients, SC)
         out += self.c[:, :, None]
         return out
 
     def each_at(self, tau):
-        """``g`` (b, F) at one time per function ``tau`` (b, F)."""
-        S, C = basis(self.w[:, None, :], tau, exact=True)
+        """``g`` (b, F) at one time per function ``tau`` (b, F), or per member (b,)."""
+        if np.ndim(tau) == 1:     # (one basis per member)
+            S, C = (x[:, None, :] for x in basis(self.w, tau, exact=True))
+        else:
+            S, C = basis(self.w[:, None, :], tau, exact=True)
         return self.c + msum(self.alpha * S + self.gamma * C)
 
     def curvature_bound(self, T=None):
@@ -172,6 +238,39 @@ class Sums:
                     self.gamma[rows, cols][:, None], self.kappa[rows], self.w[rows])
 
 
+class ModesCache:
+    """The last :data:`SLOTS` sets of modes (``κ, Q`` of :class:`BatchMotion`) of each of
+    ``n`` members of ``N`` vehicles and ``K`` contacts, by their slopes: a member's modes
+    depend on its masses and slopes only, and a contact that chatters takes few slopes over
+    and over (the same numbers as computed anew: each member's are its own LAPACK calls)."""
+
+    SLOTS = 4
+
+    def __init__(self, n: int, N: int, K: int):
+        self.slope = np.full((n, self.SLOTS, K), np.nan)    # (NaN: an empty slot)
+        self.kappa = np.zeros((n, self.SLOTS, N))
+        self.Q = np.zeros((n, self.SLOTS, N, N))
+        self.next = np.zeros(n, int)
+
+    def get(self, ix, slope):
+        """``(κ (b, N), Q (b, N, N), have (b,))`` of members ``ix`` (b,) at slopes ``slope``
+        (b, K): their modes where ``have`` (zeros elsewhere), for ``BatchMotion(known=)``."""
+        match = mall(self.slope[ix] == slope[:, None, :])
+        have = many(match)
+        slot = np.argmax(match, axis=1)
+        kappa, Q = self.kappa[ix, slot], self.Q[ix, slot]
+        kappa[~have], Q[~have] = 0.0, 0.0
+        return kappa, Q, have
+
+    def put(self, ix, slope, motion: BatchMotion, new) -> None:
+        """Keep the modes of ``motion`` of the members ``ix[new]`` at ``slope``."""
+        rows = ix[new]
+        slot = self.next[rows]
+        self.slope[rows, slot] = slope[new]
+        self.kappa[rows, slot], self.Q[rows, slot] = motion.kappa[new], motion.Q[new]
+        self.next[rows] = (slot + 1) % self.SLOTS
+
+
 def _groups(slope_on: np.ndarray) -> np.ndarray:
     """(N,) the group of each vehicle (joined by contacts with a slope, ``slope_on`` (K,))."""
     return np.concatenate([[0], np.cumsum(~slope_on)])
@@ -182,29 +281,31 @@ class BatchMotion:
 
     Parameters: ``m`` (b, N) [mass]; ``x0, v0`` (b, N) [length, velocity]; ``slope, force``
     (b, K) each contact's active slope [force/length] (0: open) and force at the start
-    [force]; ``C`` (K, N) the deformation map (:func:`._modes.deformation_map`).
+    [force]; ``C`` (K, N) the deformation map (:func:`._modes.deformation_map`); ``known``,
+    optional: ``(κ (b, N), Q (b, N, N), have (b,) bool)``, the modes of the members ``have``,
+    already computed (:class:`ModesCache`).
     """
 
-    def __init__(self, m, x0, v0, slope, force, C):
+    def __init__(self, m, x0, v0, slope, force, C, known=None):
         self.x0, self.v0 = x0, v0
         b, N = m.shape
         root = np.sqrt(m)
-        kappa = np.zeros((b, N))
-        Q = np.zeros((b, N, N))
+        kappa, Q, have = known if known is not None else (np.zeros((b, N)),
+                                                          np.zeros((b, N, N)),
+                                                          np.zeros(b, bool))
         on = slope != 0
         code = on @ (1 << np.arange(on.shape[1]))
-        for pattern in np.unique(code):
-            rows = np.flatnonzero(code == pattern)
+        for pattern in np.unique(code[~have]):
+            rows = np.flatnonzero((code == pattern) & ~have)
             kappa[rows], Q[rows] = _modes(C, slope[rows], root[rows], on[rows[0]])
-        self.kappa = kappa
+        self.kappa, self.Q = kappa, Q
         self.w = np.sqrt(kappa)
         self.T = Q / root[:, :, None]                                    # Δx = T q
         f0 = force @ -C                                                  # (b, N)
         self.a = np.einsum("bji,bj->bi", Q, root * v0)                   # q'(0)
         self.b = np.einsum("bji,bj->bi", Q, f0 / root)                   # q''(0)
         self.P = np.einsum("kn,bnj->bkj", C, self.T)                     # ΔD = P q
-        self.fastest = np.max(self.w, axis=1)
-        self.slowest = np.min(np.where(self.w > 0, self.w, np.inf), axis=1)
+        self.fastest = mmax(self.w)
 
     def state(self, tau):
         """Positions and velocities (b, N) each at its member's time ``tau`` (b,)."""

@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, half_angle, msum
-from ._roots import EXTREMUM_RTOL, PER_RADIAN, TOUCH
+from ._batch_modes import Sums, first_true, half_angle, many, mmax, mmin, msum
+from ._roots import PER_RADIAN, TOUCH
 from ._solve import fastest_entering, start_rounding, taylor_span
 
-__all__ = ["start_times", "earliest", "refine", "extreme_values", "WINDOW", "LEVELS"]
+__all__ = ["start_times", "earliest", "refine", "WINDOW", "LEVELS"]
 
 #: Sample steps per window of the batch search.
 WINDOW = 16
@@ -110,21 +110,29 @@ def _earliest(g: Sums, search, start, limit):
     which = np.full(b, -1)
     undecided = np.zeros(b, bool)
     start = np.where(search, start, np.inf)
-    g_start = np.where(search, g.each_at(np.where(search, start, 0.0)), np.inf)
+    # (a function searched from 0 starts at its constant: the series' terms vanish there; the
+    # others, and any member whose coefficients are not all finite (nor their sum), at their
+    # value)
+    g_start = np.where(search, g.c, np.inf)
+    finite = np.isfinite(np.sum(g.alpha, axis=(1, 2)) + np.sum(g.gamma, axis=(1, 2)))
+    rows, cols = np.nonzero(search & ((start != 0) | ~finite[:, None]))
+    if rows.size:
+        g_start[rows, cols] = g.take(rows, cols).each_at(start[rows, cols][:, None])[:, 0]
     # a function at or below zero where its search starts fires there
     now = search & (g_start <= 0)
+    now_any = many(now)
     if now.any():
         t_now = np.where(now, start, np.inf)
         j = np.argmin(t_now, axis=1)
-        got = now.any(axis=1)
+        got = now_any
         tau[got], which[got] = t_now[got, j[got]], j[got]
     B = g.curvature_bound()
-    rigid = g.kappa.max(axis=1) == 0
-    quad = rigid & ~now.any(axis=1)
+    rigid = mmax(g.kappa) == 0
+    quad = rigid & ~now_any
     if quad.any():
         tau[quad], which[quad] = _quadratic(g.take(quad), search[quad], start[quad], limit[quad])
-    live = np.flatnonzero(~now.any(axis=1) & ~rigid & search.any(axis=1))
-    step = 1.0 / (PER_RADIAN * np.max(g.w, axis=1))
+    live = np.flatnonzero(~now_any & ~rigid & many(search))
+    step = 1.0 / (PER_RADIAN * mmax(g.w))
     lo = np.zeros(b)
     brackets = []
     for k in range(MAX_WINDOWS):
@@ -133,9 +141,11 @@ def _earliest(g: Sums, search, start, limit):
         # (windows that double from half a window, up to 128 times the first: most events
         # lie within the first few samples, and a member whose event is far away takes few)
         count = (WINDOW // 2) << min(k, 7)
-        got, cleared, stuck = _window(g.take(live), B[live], start[live], g_start[live],
-                                      lo[live], step[live], limit[live], search[live], count,
-                                      brackets, live)
+        whole = live.size == b      # (every member, in order: no copies)
+        got, cleared, stuck = _window(*((g, B, start, g_start, lo, step, limit, search) if whole
+                                        else (g.take(live), B[live], start[live], g_start[live],
+                                              lo[live], step[live], limit[live], search[live])),
+                                      count, brackets, live)
         undecided[live[stuck]] = True
         lo[live] = cleared
         live = live[~got & ~stuck & (cleared < limit[live])]
@@ -181,28 +191,36 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
         vals = gg.at(tt)                                              # (m, F, steps + 1)
         ok = search[todo][:, :, None]
         s0 = start[todo][:, :, None]
-        if np.all(~ok[..., 0] | ((s0[..., 0] <= tt[:, :1]) & (s0[..., 0] < tt[:, 1:2]))):
-            # (every searched function starts at or before the window, and before its second
-            # sample: the values themselves; the others' are masked by ``ok``)
-            left, right = vals[..., :-1], vals[..., 1:]
-        else:
-            t0, t1 = tt[:, None, :-1], tt[:, None, 1:]
-            left = np.where(t0 < s0, np.where(t1 > s0, g_start[todo][:, :, None], np.inf),
-                            vals[..., :-1])
-            right = np.where(t1 <= s0, np.inf, vals[..., 1:])
+        # (where a searched function starts at or before the window, and before its second
+        # sample: the values themselves; the others' are masked by ``ok``; one that starts
+        # inside its first interval: its value at its start there, written over the first
+        # sample's, which nothing else reads)
+        left, right = vals[..., :-1], vals[..., 1:]
+        sf = s0[..., 0]
+        inside = ok[..., 0] & (sf > tt[:, :1])
+        if inside.any():
+            far = np.flatnonzero(many(inside & (sf >= tt[:, 1:2])))
+            if far.size:     # (later still: the intervals before its start masked)
+                left, right = left.copy(), right.copy()
+                t0, t1, sl = tt[far, None, :-1], tt[far, None, 1:], s0[far]
+                left[far] = np.where(t0 < sl, np.where(t1 > sl, g_start[todo[far]][:, :, None],
+                                                       np.inf), left[far])
+                right[far] = np.where(t1 <= sl, np.inf, right[far])
+            at, j = np.nonzero(inside & (sf < tt[:, 1:2]))
+            left[at, j, 0] = g_start[todo[at], j]
         margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
         cross = ok & (right <= 0)
         unclear = ok & ~cross & (np.minimum(left, right) <= margin)
         hit = cross | unclear
-        first = np.where(hit.any(axis=2), np.argmax(hit, axis=2), steps)    # (m, F)
-        i = np.min(first, axis=1)                                           # (m,)
+        first = first_true(hit, steps)                                     # (m, F)
+        i = mmin(first)                                                     # (m,)
         none = i == steps
         ic = np.minimum(i, steps - 1)
         at = (first == i[:, None]) & ~none[:, None]
         rows = np.arange(m)
         cr = at & cross[rows, :, ic]
-        deeper = (at & unclear[rows, :, ic]).any(axis=1)
-        brack = cr.any(axis=1) & ~deeper
+        deeper = many(at & unclear[rows, :, ic])
+        brack = many(cr) & ~deeper
         # an interval narrower than TOUCH of its time that the bound cannot clear is a
         # tangency, not a crossing (as :func:`._roots._hunt` decides): the search goes on
         # after it
@@ -293,11 +311,10 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
         Se, Ce = half_angle(half * tau, inv)
         half_tt = 0.5 * tau * tau
         S[:, :first], C[:, :first] = tau, half_tt
+        S[:, first:], C[:, first:] = Se, Ce
         if some_rigid:
-            S[:, first:] = np.where(rigid, tau, Se)
-            C[:, first:] = np.where(rigid, half_tt, Ce)
-        else:
-            S[:, first:], C[:, first:] = Se, Ce
+            np.copyto(S[:, first:], tau, where=rigid)
+            np.copyto(C[:, first:], half_tt, where=rigid)
         f = c + msum(al * S + ga * C)
         df = msum(al + ga * S - kal * C)
         pos = f > 0     # (the zero lies above x where the function, made positive first, is)
@@ -319,7 +336,8 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
             done |= cycle
         back = state
         if done.any():
-            x[live[done]] = np.where(cycle, x[live], xl)[done]
+            at = live[done]
+            x[at] = np.where(cycle[done], x[at], xl[done])
             act &= ~done
             # (the brackets closed are compacted away once they are half the arrays; until
             # then they are computed on, unread)
@@ -358,143 +376,3 @@ def _quadratic(g: Sums, search, start, limit):
     j = np.argmin(best, axis=1)
     t = best[np.arange(c.shape[0]), j]
     return np.where(np.isfinite(t), t, np.nan), np.where(np.isfinite(t), j, -1)
-
-
-#: An interval where a function's derivative may touch zero between samples of one sign is
-#: left at its samples where the largest excess of the function over them that this allows
-#: is below this fraction of the function's size there (:data:`._roots.FLAT`, relaxed from
-#: 1e-15 to what :data:`._roots.DEPTH` bisections leave in the single solve).
-FLAT = 1e-14
-#: How many times at most :func:`extreme_values` samples an interval again, finer.
-PEAK_LEVELS = 6
-
-
-def extreme_values(g: Sums, T, largest, turns=None, bars=None):
-    """Over ``[0, T]`` (T (b,) [s]) of each member, each function's largest and smallest
-    values: ``(top (b, F), bottom (b, F), undecided (b,))``, exact for the largest value where
-    ``largest`` (F,) (and for the value of largest magnitude where that is the largest, as it is
-    for a force), for the value of largest magnitude elsewhere. The values are taken at every sample, at both ends and at every zero
-    of the derivative, whose sign changes are found and refined as :func:`earliest` finds
-    zeros. Where the derivative may touch zero between two samples of one sign (the bound on
-    the third derivative cannot clear it), the function can exceed its samples there by at
-    most ``w (B w²/8 - min |g'|)`` (``w`` the width): such an interval is cleared where that is
-    below :data:`FLAT` of the function's size, or where the derivative is provably monotone on
-    it (a bound on the next derivative), else sampled again :data:`WINDOW` times finer, up to
-    :data:`PEAK_LEVELS` times; a member with an interval still not cleared is *undecided* (the
-    caller solves it alone). ``turns`` (b, F) bool, optional: the functions that may turn
-    inside ``[0, T]``; the others are monotone (their extremes are at the ends, among the
-    samples), and neither their derivative's zeros nor its grazing intervals are searched."""
-    b, F = g.c.shape
-    d = g.derivative()
-    dd = d.derivative()
-    Bd, Bdd = d.curvature_bound(), dd.curvature_bound()
-    w_max = np.max(g.w, axis=1)
-    step = np.where(w_max > 0, 1.0 / (PER_RADIAN * np.where(w_max > 0, w_max, 1.0)),
-                    np.maximum(T, 1e-300) / 2)
-    top = np.full((b, F), -np.inf)
-    bottom = np.full((b, F), np.inf)
-    undecided = np.zeros(b, bool)
-    late, zeros = [], []
-    # the intervals still to sample: member, start, end, step, level (0: the end is T), and
-    # the pass one window at a time would sample it on (its age)
-    r = np.arange(b)
-    lo, hi, h, level = np.zeros(b), np.asarray(T, float), step, np.zeros(b, int)
-    age = np.zeros(b, int)
-    passes = MAX_WINDOWS * 4
-    for k in range(passes):
-        if not r.size:
-            break
-        # the level-0 intervals take windows that double (1, 2, 4, ... up to 64 a pass),
-        # each placed as one window at a time would place it
-        first = level == 0
-        count = min(1 << k, 64, passes - int(age[first].min())) if first.any() else 1
-        tt, end = _windows(lo, hi, h, first, count)
-        gl, dl = (g, d) if k == 0 else (g.take(r), d.take(r))   # (pass 0: r is every member)
-        SC = gl.basis(tt)
-        vals, dv = gl.on(SC), dl.on(SC)
-        if k == 0:     # (r: every member once)
-            np.fmax(top, np.max(vals, axis=2), out=top)
-            np.fmin(bottom, np.min(vals, axis=2), out=bottom)
-        else:
-            np.fmax.at(top, r, np.max(vals, axis=2))
-            np.fmin.at(bottom, r, np.min(vals, axis=2))
-        a, c = dv[..., :-1], dv[..., 1:]
-        w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
-        margin = Bd[r][:, :, None] * w ** 2 / 8.0
-        change = (a * c <= 0) & (a != c)
-        if turns is not None:
-            turning = turns[r][:, :, None]
-            change &= turning
-        if change.any():
-            # (a zero of g' whose value cannot beat the peak so far need not be refined:
-            # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
-            # (on the sign changes only)
-            m, j, i = np.nonzero(change)
-            am, cm = a[m, j, i], c[m, j, i]
-            reach = (np.minimum(np.abs(vals[m, j, i]), np.abs(vals[m, j, i + 1]))
-                     + w[m, 0, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[m, j, i]))
-            tm, bm = top[r[m], j], bottom[r[m], j]
-            peak = np.where(largest[j], tm, np.maximum(np.abs(tm), np.abs(bm)))
-            if bars is not None:
-                peak = np.maximum(peak, bars[r[m], j])
-            m, j, i = (x[~(reach < peak)] for x in (m, j, i))
-            zeros.append((r[m], j, tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
-                          dl.take(m, j), gl.take(m, j)))
-        low = np.minimum(np.abs(a), np.abs(c))
-        grazing = ~change & (low <= margin)
-        if turns is not None:
-            grazing &= turning
-        new = []
-        if grazing.any():
-            q = np.flatnonzero(grazing.any(axis=(1, 2)))     # (the rows that have some)
-            rq, wq = r[q], w[q]
-            size = np.maximum(np.abs(top[rq]), np.abs(bottom[rq]))[:, :, None]
-            excess = wq * (margin[q] - low[q])
-            ddv = dd.take(rq).on(SC[q])
-            e, f = ddv[..., :-1], ddv[..., 1:]
-            monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
-                                      > Bdd[rq][:, :, None] * wq ** 2 / 8.0)
-            bad = grazing[q] & ~monotone & (excess > FLAT * size)             # (m, F, W)
-            deep = bad & (level[q] >= PEAK_LEVELS)[:, None, None]
-            if deep.any():   # (judged at the end, against the function's size on [0, T])
-                m, j, i = np.nonzero(deep)
-                late.append((rq[m], j, excess[m, j, i]))
-            m, i = np.nonzero((bad & ~deep).any(axis=1))
-            m = q[m]
-            new.append((r[m], tt[m, i], tt[m, i + 1], (tt[m, i + 1] - tt[m, i]) / WINDOW,
-                        level[m] + 1, age[m] + i // WINDOW + 1))
-        go = first & (end < hi)
-        new.append((r[go], end[go], hi[go], h[go], level[go], age[go] + count))
-        r, lo, hi, h, level, age = (np.concatenate(x) for x in zip(*new))
-        late_pass = age >= passes      # (beyond the passes one window at a time would take)
-        undecided[r[late_pass]] = True
-        keep = ~late_pass
-        r, lo, hi, h, level, age = r[keep], lo[keep], hi[keep], h[keep], level[keep], age[keep]
-    undecided[r] = True
-    if zeros:    # (the derivative's zeros of every pass refined at once, each on its own)
-        m, j, ta, tb, fa, fb = (np.concatenate(x) for x in zip(*(q[:6] for q in zeros)))
-        roots = refine(Sums.joined([q[6] for q in zeros]), ta, tb, fa, fb, rtol=EXTREMUM_RTOL)
-        at = Sums.joined([q[7] for q in zeros]).each_at(roots[:, None])[:, 0]
-        np.fmax.at(top, (m, j), at)
-        np.fmin.at(bottom, (m, j), at)
-    size = np.maximum(np.abs(top), np.abs(bottom))
-    for m, j, excess in late:
-        undecided[m[excess > FLAT * size[m, j]]] = True
-    return top, bottom, undecided
-
-
-def _windows(lo, hi, h, first, count):
-    """Sample times (m, count WINDOW + 1) of the intervals ``[lo, hi]`` (m,) sampled every
-    ``h``: where ``first``, ``count`` windows of :data:`WINDOW` steps one after the other, each
-    ending at ``min(its start + WINDOW h, hi)`` (the last one's end returned (m,)); elsewhere
-    one window ending at ``hi``; the rest of a row is its end repeated (intervals of width 0)."""
-    tt = np.empty((lo.size, count * WINDOW + 1))
-    steps = h[:, None] * np.arange(WINDOW + 1)
-    start = lo
-    for j in range(count):
-        end = np.where(first, np.minimum(start + WINDOW * h, hi), hi)
-        block = tt[:, j * WINDOW:(j + 1) * WINDOW + 1]
-        np.minimum(start[:, None] + steps, end[:, None], out=block)
-        block[:, -1] = end
-        start = end
-    return tt, end
