@@ -280,14 +280,12 @@ FAR = {"units": "US", "vehicles": [{"mass": 96.23404750698046, "speed": 14.42823
                      "unloading": {"restitution": 0.7}, "gap": 0.23798652535801157}]}
 
 
-@pytest.mark.xfail(strict=True, reason="exact-chain's deformations are differences of positions "
-                   "111 ft down the road: its energy balance is 6e-12 off (SciPy's too)")
 def test_the_energy_balance_of_a_chain_far_down_the_road():
     """The chain FAR (found by the --hard modal test): the independent solution, its positions
-    relative to the rear car, closes the energy balance to 1e-13 and agrees with exact-chain on
-    every metric to 1e-10; exact-chain's own balance is 6.1e-12 off (its front contact's max
-    deformation, 3.5e-4 ft, 1.5e-15 ft from the reference's: 4e-12 of itself), over the 1e-12
-    that the chains it solves are held to. A formulation in relative positions keeps it."""
+    relative to the rear car, closes the energy balance to 1e-13; so does exact-chain (1.6e-14),
+    its deformations carried from segment to segment in the modes. It was 6.1e-12 off (over the
+    1e-12 the chains it solves are held to) while it took them from the positions 111 ft down
+    the road, differences known to their ulps."""
     _, ref = reference(FAR)
     m, v0 = np.array([v["mass"] for v in FAR["vehicles"]]), [v["speed"] for v in FAR["vehicles"]]
     ke0 = relative_ke(m, v0)
@@ -324,15 +322,14 @@ FAR_STIFF = {"units": "US", "vehicles": [
      "unloading": {"restitution": 0.7}, "gap": 0.03620742210525427}]}
 
 
-@pytest.mark.xfail(strict=True, reason="exact-chain's deformations are differences of positions "
-                   "244 ft down the road: a 1e7 lbf/ft contact's impulse 2e-11 ft/s off")
 def test_a_stiff_contact_far_down_the_road():
     """FAR_STIFF (found by the --hard modal test): the independent solution and the tightest
     SciPy solve (DOP853, rtol 2.5e-14, each segment in its own frame) agree on the final speeds
-    to 3.3e-12 ft/s; exact-chain's are 2.4e-11 ft/s off (a deformation rounded to an ulp of 244
-    ft, 2.8e-14 ft, times 1e7 lbf/ft over the 5.3e-3 s contact, over a 79 slug car), and the
-    closing 276 s later comes 4.8e-6 s early (1.6e-8 of the run; a change of 1e-14 in the rear
-    car's speed moves it by 100 times less)."""
+    to 3.3e-12 ft/s; exact-chain's are 5.6e-13 ft/s from the independent solution's, its
+    deformations carried from segment to segment. They were 2.4e-11 ft/s off while it took them
+    from the positions (a deformation rounded to an ulp of 244 ft, 2.8e-14 ft, times 1e7 lbf/ft
+    over the 5.3e-3 s contact, over a 79 slug car), and the closing 276 s later came 4.8e-6 s
+    early."""
     _, ref = reference(FAR_STIFF)
     tight = lsc.solve(FAR_STIFF, method="scipy", integrator="DOP853", rtol=2.5e-14,
                       max_steps=10**6)

@@ -35,7 +35,7 @@ import numpy as np
 
 from ._eigen import _block_eigh, _factor_kappa
 
-__all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
+__all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map", "frame"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -251,9 +251,10 @@ class Shape:
         root = np.sqrt(m)
         kappa, Q = _modes(C, slope, root, held)
         self.modes = Modes(kappa)
-        self.T = Q / root[:, None]
+        self.T = rigid_rows(Q / root[:, None], self.modes.kappa)
         self.P = C @ self.T
         self.minus_kappa_P = -self.modes.kappa * self.P   # (each row as -κ * P[k] gives it)
+        self.spanning = spanning(self.P, self.modes.kappa)
         self.from_velocity = Q.T * root[None, :]
         self.from_force = self.T.T @ incidence
         # the contact forces and accelerations (K + N): from the forces at the start, and
@@ -272,6 +273,24 @@ class Shape:
         self.searched = np.array([k for k, a in enumerate(active) if a]
                                  + [len(active) + i for i, n in enumerate(pushed) if n > 1],
                                  dtype=int)
+
+
+def rigid_rows(T, kappa):
+    """``T`` (N, n) with each rigid mode's column (``κ = 0``) one number on every vehicle of
+    its group (its first vehicle's: ``1/√M_g`` to rounding, as each is): a contact inside a
+    group then has exactly no rigid part (its row of ``P = C T`` is 0 there), so the group's
+    translation, however far it goes, never enters its deformation."""
+    for j in np.flatnonzero(kappa == 0).tolist():
+        rows = np.flatnonzero(T[:, j])
+        T[rows, j] = T[rows[0], j]
+    return T
+
+
+def spanning(P, kappa):
+    """The contacts whose row of ``P`` (K, n) has a rigid part (``κ = 0``): those between two
+    groups (open, or to a held vehicle), whose deformation changes by the groups' relative
+    translation (:meth:`Motion.deformations`)."""
+    return np.flatnonzero(np.any(P[:, kappa == 0] != 0, axis=1))
 
 
 #: How many :class:`Shape` objects are kept for reuse (all dropped at once when full).
@@ -323,7 +342,7 @@ class Motion:
 
     def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None,
                  push=None):
-        self.m, self.x0, self.v0 = m, x0, v0
+        self.m, self.x0, self.v0, self.force = m, x0, v0, force
         shape = Shape(m, slope, incidence) if shape is None else shape
         self.shape = shape
         self.modes = shape.modes
@@ -341,10 +360,7 @@ class Motion:
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
         if isinstance(tau, float) or np.ndim(tau) == 0:   # (one time: the modal terms on
             # Python floats, same arithmetic)
-            S, C = self.modes.basis_at(float(tau))
-            a, b = self.a.tolist(), self.b.tolist()
-            q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
-            dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+            q, dq = self._modal_at(float(tau))
             return np.concatenate([self.x0 + self.T @ q, self.v0 + self.T @ dq])
         S, C = self.modes.basis(np.atleast_1d(tau))
         q = S * self.a + C * self.b
@@ -353,6 +369,39 @@ class Motion:
         v = self.v0[:, None] + self.T @ dq.T
         out = np.concatenate([x, v])
         return out[:, 0] if np.ndim(tau) == 0 else out
+
+    def _modal_at(self, tau: float) -> tuple[list, list]:
+        """``q(τ)`` and ``q'(τ) - q'(0)`` (lists, n) at one time ``tau`` [s]."""
+        S, C = self.modes.basis_at(tau)
+        a, b = self.a.tolist(), self.b.tolist()
+        q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
+        dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+        return q, dq
+
+    def deformations(self, tau: float, D0: list, W0: list) -> list:
+        """The deformations (K,) [length] at one time ``tau`` [s] from those at the start,
+        ``D0`` (K,), and the closing rates ``W0`` (K,) [velocity]: ``D0 + P q(τ)``, the change
+        in the modes, not a difference of positions (a group's translation has no part in a
+        deformation inside it: :func:`rigid_rows`). A contact between two groups
+        (:func:`spanning`) changes by their relative translation too, taken from the
+        relative motion at the start, ``W0 τ + A0 τ²/2`` (``A0`` the relative acceleration),
+        and the modes' departure from it, ``Σ P (S - τ) a + (C - τ²/2) b`` (zero on the rigid
+        modes): two groups moving alike keep their deformation exactly."""
+        tau = float(tau)
+        S, C = self.modes.basis_at(tau)
+        a, b = self.a.tolist(), self.b.tolist()
+        D = np.asarray(D0, float) + self.P @ [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
+        spans = self.shape.spanning
+        if spans.size:
+            half = 0.5 * tau * tau
+            rel = [(s - tau) * x + (c - half) * y for s, c, x, y in zip(S, C, a, b)]
+            acc = self.shape.peak_of_force[len(D0):] @ self.force
+            if self.offset is not None:
+                acc = acc + self.offset[len(D0):]
+            for k in spans.tolist():
+                D[k] = D0[k] + (W0[k] * tau + (acc[k] - acc[k + 1]) * half
+                                + float(self.P[k] @ rel))
+        return D.tolist()
 
     def deformation(self, k: int, c: float, sign: float = 1.0) -> Series:
         """``c + sign ΔD_k(τ)`` (``sign`` ±1) as a :class:`Series`."""
@@ -379,6 +428,18 @@ class Motion:
         if self._pa is None:
             self._pa = (self.P * self.a, self.P * self.b)
         return self._pa
+
+
+def frame(y, p, D):
+    """``(y, p)`` as the model reads deformations ``D`` (K, ...) [length] from them: every
+    position at the largest ``|x|`` (the positions' rounding, which tolerances such as
+    :func:`lsc.lock_law.force_rounding` read, as it was) and the gaps ``-D``, so that
+    ``x_k - x_{k+1} - gap_k`` is ``D_k`` exactly; the velocities (the closing rates) as they
+    are. ``y`` (2N, ...), ``p`` the model's parameters."""
+    D = np.asarray(D, float)
+    y, N = np.array(y, float), D.shape[0] + 1
+    y[:N] = np.max(np.abs(y[:N]), axis=0)
+    return y, dict(p, gap=-D)
 
 
 def _modes(C, slope, root, held=()):

@@ -18,13 +18,13 @@ import time
 import numpy as np
 
 from ...errors import SimulationError
-from ..segments import Step, build_result, event_rows, run_segments
+from ..segments import Step, build_result, run_segments
 from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _lines, _locks
 from ._brakes import Brakes
 from ._locks import LockTransitions
-from ._modes import Motion, Shape, deformation_map
+from ._modes import Motion, Shape, deformation_map, frame
 from ._peaks import segment_peaks
 from ._roots import PER_RADIAN, Stack, earliest
 
@@ -55,7 +55,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     chain = _Chain(model)
     transitions = chain.parts = _transitions(model)
     start = time.perf_counter()
-    segments, events, y, disc, totals = run_segments(transitions, chain.advance,
+    segments, events, y, disc, totals = run_segments(_Carried(transitions, chain), chain.advance,
                                                      t_end=t_end, max_events=max_events)
     notes = lock_warnings(events).get("warnings", []) + chain.warnings()
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
@@ -63,7 +63,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     if isinstance(transitions, LockTransitions):
         # (the locking model's forces, locked ones included, at the event points)
         model = transitions._locking
-        rows = event_rows(model, segments, y)
+        rows = chain.rows(segments, model)
     else:
         rows = chain.rows(segments)
     # (a narrow rebound line's force, the line's own at the end it is at: ._lines)
@@ -73,7 +73,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     result = build_result(model, segments, events, y, disc, method="exact-chain",
                           tolerances={}, stats=stats, n_samples=n_samples,
                           y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
-    if any(chain.lines):   # (the series too: ._lines.Sampler)
+    if len(chain.records) == len(segments):   # (the series from the deformations carried)
         result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
     return result
 
@@ -120,20 +120,37 @@ class _Chain:
         # is at the last segment's end, 0 foot 1 top; that segment's discrete state; a
         # narrow line's contact where its place is not known: the first time)
         self.lines, self.places, self.before, self.unknown, self.t0 = [], {}, None, {}, 0.0
+        # (the deformations at both ends of each segment, each start's the last end's, carried
+        # from segment to segment in the modes, not re-derived from the positions: their
+        # rounding, an ulp of how far the chain has gone, times a stiff contact's slope, was a
+        # wrong impulse; the last end's state and deformations, what the transitions read)
+        self.deformations, self.carried = [], None
 
-    def rows(self, segments) -> dict | None:
+    def rows(self, segments, model=None) -> dict | None:
         """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
-        every segment, in its own discrete state) from the states at the segments' ends, the
-        model's forces evaluated once on all of them (``None``: no segment)."""
+        every segment, in its own discrete state) from the states and the deformations carried
+        at the segments' ends (``None``: no segment): the forces ``model``'s (the chain's own by
+        default, evaluated once on all of them; a locking model's, its locked ones included,
+        segment by segment)."""
         if not segments or len(segments) != len(self.ends):
             return None
         N = self.N
         Y = np.array([y for pair in self.ends for y in pair]).T      # (2N, 2S)
-        # each contact's (and brake's) discrete state on both ends of every segment, as arrays
-        disc = [_Ends(segments, k) for k in range(len(segments[0].disc))]
-        p = dict(self.model.params, gap=self.gap[:, None])
-        F, _, acc = self.model.accelerations(Y, disc, p)
-        D, _ = self.model.deformation(Y, p)
+        # (the forces from the deformations carried, not from the positions: frame)
+        D = np.array([d for pair in self.deformations for d in pair]).T   # (K, 2S)
+        if model is None:
+            # each contact's (and brake's) discrete state on both ends of every segment, as
+            # arrays
+            disc = [_Ends(segments, k) for k in range(len(segments[0].disc))]
+            Yd, p = frame(Y, self.model.params, D)
+            F, _, acc = self.model.accelerations(Yd, disc, p)
+        else:
+            F, acc = np.empty(D.shape), np.empty((N, D.shape[1]))
+            for i, s in enumerate(segments):
+                ends = slice(2 * i, 2 * i + 2)
+                Yd, p = frame(Y[:, ends], model.params, D[:, ends])
+                f, _, a = model.accelerations(Yd, s.disc, p)
+                F[:, ends], acc[:, ends] = np.asarray(f, float), np.asarray(a, float)
         return {"t": np.array([t for s in segments for t in (s.t0, s.t1)]), "x": Y[:N].T,
                 "v": Y[N:2 * N].T, "a": acc.T, "deformation": D.T, "force": F.T}
 
@@ -141,6 +158,7 @@ class _Chain:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
         y0, self.t0 = np.asarray(y0, float), t0
+        carried = self.carried[1] if self.carried and self.carried[0] is y0 else None
         lock = _locks.locked(self.parts, disc)
         if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
             y0 = _locks.project(self, y0, lock)
@@ -151,11 +169,12 @@ class _Chain:
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
         # (the deformations and closing rates as Python floats: the same arithmetic as on
         # NumPy's 0-d values, several times cheaper)
-        D0, W0 = (self.C @ x0 - self.gap).tolist(), (self.C @ v0).tolist()
+        D0 = carried if carried is not None else (self.C @ x0 - self.gap).tolist()
+        W0 = (self.C @ v0).tolist()
         contacts = disc[: self.K]
         key = tuple(float(st["s"]) for st in contacts)
         tol_d = self._tol_d(x0)
-        self.bounce = self._bounces(contacts, W0, disc, x0, v0, tol_d)
+        self.bounce = self._bounces(contacts, D0, W0, disc, x0, v0, tol_d)
         # (a narrow line's contact at its top or foot: the line's force there, and its
         # deformation relative to the line from there, not from the positions' rounding)
         lines = _lines.places(self, contacts, tol_d)
@@ -188,6 +207,7 @@ class _Chain:
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
+        D1 = motion.deformations(tau, D0, W0)
         stopped = None
         if event is not None and self.brakes:
             j, w = self.parts.events[event]
@@ -197,6 +217,8 @@ class _Chain:
         self.records.append((t0, motion, force, tau,
                              self._unsearched(motion, funcs, disc, force.tolist(), key, lock)))
         self.ends.append((y0, end))
+        self.deformations.append((D0, D1))
+        self.carried = (end, D1)
         _lines.leave(self, lines, event, tau, disc)
 
         def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
@@ -282,7 +304,8 @@ class _Chain:
                                        st["hi"] - st["da"] + (0.0 if lines[k] else st["wl"]),
                                        -1.0)
             if k not in leaves:
-                leaves[k] = self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w)
+                leaves[k] = self._leaves_narrow_line(k, st, D0, W0, disc, x0, v0, tol_d,
+                                                     tol_w)
             tol = NOW if leaves[k] == which else tol_d
             out.append((i, g, tol))
         return out
@@ -296,7 +319,7 @@ class _Chain:
         deformation's aside."""
         return START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist()))
 
-    def _bounces(self, contacts, W0, disc, x0, v0, tol_d) -> tuple:
+    def _bounces(self, contacts, D0, W0, disc, x0, v0, tol_d) -> tuple:
         """The contacts that close onto a narrow unloading line slower than it can stop them
         (:meth:`_leaves_narrow_line` 2): each bounces on it, elastically, from its foot
         (``tol_d``: :meth:`_tol_d` at the start)."""
@@ -305,9 +328,9 @@ class _Chain:
         if not closing:
             return ()
         return tuple(k for k in closing if self._leaves_narrow_line(
-            k, contacts[k], W0, disc, x0, v0, tol_d, math.inf) == 2)
+            k, contacts[k], D0, W0, disc, x0, v0, tol_d, math.inf) == 2)
 
-    def _leaves_narrow_line(self, k, st, W0, disc, x0, v0, tol_d, tol_w):
+    def _leaves_narrow_line(self, k, st, D0, W0, disc, x0, v0, tol_d, tol_w):
         """Which end (0 lower, 1 upper) contact ``k`` leaves its unloading line by at once,
         where the line is narrower than the start's resolution ``tol_d`` [length] and the pair
         is not clearly closing nor opening (``|Ḋ| <= tol_w`` [velocity]); ``None`` otherwise;
@@ -330,7 +353,8 @@ class _Chain:
         model = getattr(self.parts, "_locking", self.model)   # (with the locks held)
         locked = _locks.locked(self.parts, disc)
         mask = [j == k or j in locked for j in range(self.K)]
-        _, press = pressed(model, np.concatenate([x0, v0]), disc, model.params, mask)
+        y, p = frame(np.concatenate([x0, v0]), model.params, D0)   # (D0's forces: frame)
+        _, press = pressed(model, y, disc, p, mask)
         if press[k]:
             return 1
         # (closing faster than the line can stop: its kinetic energy of closing, the two sides
@@ -391,6 +415,26 @@ class _Chain:
             if lo >= budget and best is None:
                 return lo, None
         return (best, best_i) if best_i is not None else (None, None)
+
+
+class _Carried:
+    """The transitions the segment loop drives (``parts``), each event's read at the
+    deformations ``chain`` carried to the segment's end (:func:`~._modes.frame`), not at the
+    positions' differences; everything else is ``parts``' own."""
+
+    def __init__(self, parts, chain):
+        self._parts, self._chain = parts, chain
+
+    def __getattr__(self, name):
+        return getattr(self._parts, name)
+
+    def apply_event(self, i, t, y, disc, p, xp=None):
+        """``parts``' transition of event ``i`` at the end state ``y``, its deformations the
+        carried ones (where ``y`` is the last segment's end, as the loop passes it)."""
+        carried = self._chain.carried
+        if carried is not None and carried[0] is y:
+            y, p = frame(y, p, carried[1])
+        return self._parts.apply_event(i, t, y, disc, p)
 
 
 class _Ends(dict):
