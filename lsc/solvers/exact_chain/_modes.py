@@ -354,7 +354,7 @@ class Motion:
             self.b = self.b + shape.T.T @ push
             self.offset = np.concatenate([np.zeros(len(force)), push / m])
         self.N = m.size
-        self._pa = self._rate = None
+        self._pa = self._rate = self._at = None
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
@@ -371,11 +371,16 @@ class Motion:
         return out[:, 0] if np.ndim(tau) == 0 else out
 
     def _modal_at(self, tau: float) -> tuple[list, list]:
-        """``q(τ)`` and ``q'(τ) - q'(0)`` (lists, n) at one time ``tau`` [s]."""
+        """``q(τ)`` and ``q'(τ) - q'(0)`` (lists, n) at one time ``tau`` [s] (the last time's
+        kept, with its basis ``S, C`` and ``a, b`` as lists: a segment's end is asked for its
+        state, then its deformations)."""
+        if self._at is not None and self._at[0] == tau:
+            return self._at[1]
         S, C = self.modes.basis_at(tau)
         a, b = self.a.tolist(), self.b.tolist()
         q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
         dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+        self._at = (tau, (q, dq), S, C, a, b)
         return q, dq
 
     def deformations(self, tau: float, D0: list, W0: list) -> list:
@@ -388,9 +393,9 @@ class Motion:
         and the modes' departure from it, ``Σ P (S - τ) a + (C - τ²/2) b`` (zero on the rigid
         modes): two groups moving alike keep their deformation exactly."""
         tau = float(tau)
-        S, C = self.modes.basis_at(tau)
-        a, b = self.a.tolist(), self.b.tolist()
-        D = np.asarray(D0, float) + self.P @ [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
+        q, _ = self._modal_at(tau)
+        _, _, S, C, a, b = self._at
+        D = np.asarray(D0, float) + self.P @ q
         spans = self.shape.spanning
         if spans.size:
             half = 0.5 * tau * tau
@@ -437,8 +442,8 @@ def frame(y, p, D):
     ``x_k - x_{k+1} - gap_k`` is ``D_k`` exactly; the velocities (the closing rates) as they
     are. ``y`` (2N, ...), ``p`` the model's parameters."""
     D = np.asarray(D, float)
-    y, N = np.array(y, float), D.shape[0] + 1
-    y[:N] = np.max(np.abs(y[:N]), axis=0)
+    y, N = np.array(y, float), len(D) + 1
+    y[:N] = np.abs(y[:N]).max(axis=0)
     return y, dict(p, gap=-D)
 
 

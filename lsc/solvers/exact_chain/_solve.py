@@ -426,7 +426,8 @@ class _Carried:
         self._parts, self._chain = parts, chain
 
     def __getattr__(self, name):
-        return getattr(self._parts, name)
+        value = self.__dict__[name] = getattr(self._parts, name)   # (looked up once)
+        return value
 
     def apply_event(self, i, t, y, disc, p, xp=None):
         """``parts``' transition of event ``i`` at the end state ``y``, its deformations the
