@@ -326,6 +326,29 @@ def test_a_stiff_contact_far_down_the_road():
     assert np.max(np.abs(r.v_final - ref["v_final"])) <= 5e-12, r.v_final - ref["v_final"]
 
 
+#: Three cars: the rear one at 14.76 ft/s touching the middle one at the same speed (no gap),
+#: the front one 0.005 ft ahead at 14.52 ft/s (random 3-car chain 19 of bench_chain's).
+TOUCHING_ALIKE = {"units": "US", "vehicles": [
+    {"mass": 366.6525865304791, "speed": 14.755659642232738},
+    {"mass": 151.78468508209554, "speed": 14.755659642232738},
+    {"mass": 223.876284929752, "speed": 14.52415773357005}], "contacts": [
+    {"loading": {"stiffness": 1248814.4070079185}, "unloading": {"restitution": 1.0}, "gap": 0.0},
+    {"loading": {"stiffness": 857813.2879091023}, "unloading": {"restitution": 1.0},
+     "gap": 0.0050158684982051635}]}
+
+
+def test_a_touching_pair_moving_alike_closes_with_the_push_that_shuts_it():
+    """TOUCHING_ALIKE: the two rear cars, touching at one speed, fly 0.022 s (0.32 ft) side by
+    side; contact 1 closes, pushing the middle car back onto the rear one: contact 0 closes at
+    that instant (pushed shut: it fires at once). Its deformation is carried, exactly 0 all
+    along the flight; taken from the positions, two numbers 0.32 ft each rounded apart, it
+    was a rounding error that closed 6.3e-7 s late."""
+    r = lsc.solve(TOUCHING_ALIKE, method="exact-chain")
+    first = [(e.kind, e.index) for e in r.events[:2]]
+    assert first == [("contact", 1), ("contact", 0)], first
+    assert r.events[1].time == r.events[0].time
+
+
 def _agree_to_their_rounding(scene):
     """exact-chain and the independent solution of ``scene`` agree on every metric to 1e-10 of
     its scale plus what a relative change of 1e-14 in the rear car's speed does to them (once,
