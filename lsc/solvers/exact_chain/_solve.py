@@ -374,10 +374,10 @@ class _Chain:
     def warnings(self) -> list[str]:
         """One warning per contact on a rebound line narrower than the start resolves at a
         point of it that the solve does not know (:func:`._lines.places`)."""
-        return [f"contact {k} was at t = {t:.6g} s on its rebound line, narrower than the "
-                "positions resolve, at a point of it the solve does not know (not its top nor "
-                "its foot): the forces and accelerations recorded there are its rounding (its "
-                "slope times the positions' ulps)" for k, t in sorted(self.unknown.items())]
+        return [f"contact {k} was at t = {t:.6g} s on its rebound line, narrower than a "
+                "segment's start resolves, at a point of it the solve does not know (not its top "
+                "nor its foot): the forces and accelerations recorded there are its rounding (its "
+                "slope times its deformation's rounding)" for k, t in sorted(self.unknown.items())]
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
