@@ -37,7 +37,8 @@ from ._batch_modes import BatchMotion, Sums
 from ._batch_roots import earliest, extreme_values, start_times
 from ._modes import deformation_map
 from ._locks import LockTransitions
-from ._solve import START_TOL, _Carried, _Chain, _transitions, solve as solve_one
+from ._carry import Carried
+from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
 
 __all__ = ["solve_batch", "HANDOFF_EVENTS"]
 
@@ -223,7 +224,7 @@ class _Batch:
         chain.parts = parts
         disc = model.to_python([{key: a[i] for key, a in s.items()} for s in st])
         t, y, nev = float(w["t"][i]), np.concatenate([w["x"][i], w["v"][i]]), int(w["nev"][i])
-        chain.carried, parts = (y, w["D"][i].tolist()), _Carried(parts, chain)
+        chain.carried, parts = (y, w["D"][i].tolist()), Carried(parts, chain)
         horizon, events = model.crash_horizon, []
         try:
             while not parts.is_over(y, disc, t, horizon):

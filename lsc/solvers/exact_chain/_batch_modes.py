@@ -199,7 +199,7 @@ class BatchMotion:
         self.kappa = kappa
         self.w = np.sqrt(kappa)
         self.T = Q / root[:, :, None]                                    # Δx = T q
-        for pattern in np.unique(code):   # (as :func:`._modes.rigid_rows`: a group's rigid
+        for pattern in np.unique(code):   # (as :func:`._carry.rigid_rows`: a group's rigid
             rows = np.flatnonzero(code == pattern)   # column one number on its vehicles)
             group = _groups(on[rows[0]])
             for g in range(int(group[-1]) + 1):
@@ -223,7 +223,7 @@ class BatchMotion:
     def deformations(self, tau, D0, W0):
         """The deformations (b, K) [length] each at its member's time ``tau`` (b,) from those
         at the start ``D0`` and the closing rates ``W0`` (b, K), as
-        :meth:`._modes.Motion.deformations`: ``D0 + P q(τ)``; a contact between two groups
+        :func:`._carry.deformations`: ``D0 + P q(τ)``; a contact between two groups
         (a rigid part in its row of ``P``) ``D0 + W0 τ + A0 τ²/2 + P ((S - τ) a + (C - τ²/2)
         b)``, ``A0`` the relative acceleration at the start."""
         S, C = basis(self.w, tau, exact=True)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING
 from ..segments import _full, _Sampler
-from ._modes import frame
+from ._carry import frame
 
 __all__ = ["force", "places", "leave", "line_rows", "Sampler"]
 

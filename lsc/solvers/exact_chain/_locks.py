@@ -26,7 +26,8 @@ import numpy as np
 
 from ...lock_law import force_rounding
 from ...locking import cluster_forces, clusters
-from ._modes import Motion, Series, Shape, deformation_map, spanning
+from ._carry import spanning
+from ._modes import Motion, Series, Shape, deformation_map
 
 __all__ = ["LockTransitions", "LockedShape", "locked", "project", "motion", "event_function",
            "first_of_ties"]

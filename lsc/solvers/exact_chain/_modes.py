@@ -33,9 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._carry import rigid_rows, spanning
 from ._eigen import _block_eigh, _factor_kappa
 
-__all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map", "frame"]
+__all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -275,24 +276,6 @@ class Shape:
                                  dtype=int)
 
 
-def rigid_rows(T, kappa):
-    """``T`` (N, n) with each rigid mode's column (``κ = 0``) one number on every vehicle of
-    its group (its first vehicle's: ``1/√M_g`` to rounding, as each is): a contact inside a
-    group then has exactly no rigid part (its row of ``P = C T`` is 0 there), so the group's
-    translation, however far it goes, never enters its deformation."""
-    for j in np.flatnonzero(kappa == 0).tolist():
-        rows = np.flatnonzero(T[:, j])
-        T[rows, j] = T[rows[0], j]
-    return T
-
-
-def spanning(P, kappa):
-    """The contacts whose row of ``P`` (K, n) has a rigid part (``κ = 0``): those between two
-    groups (open, or to a held vehicle), whose deformation changes by the groups' relative
-    translation (:meth:`Motion.deformations`)."""
-    return np.flatnonzero(np.any(P[:, kappa == 0] != 0, axis=1))
-
-
 #: How many :class:`Shape` objects are kept for reuse (all dropped at once when full).
 SHAPES = 4096
 #: ... and at most about this many (N, N) matrix entries in all (each Shape holds a few (N, N)
@@ -383,31 +366,6 @@ class Motion:
         self._at = (tau, (q, dq), S, C, a, b)
         return q, dq
 
-    def deformations(self, tau: float, D0: list, W0: list) -> list:
-        """The deformations (K,) [length] at one time ``tau`` [s] from those at the start,
-        ``D0`` (K,), and the closing rates ``W0`` (K,) [velocity]: ``D0 + P q(τ)``, the change
-        in the modes, not a difference of positions (a group's translation has no part in a
-        deformation inside it: :func:`rigid_rows`). A contact between two groups
-        (:func:`spanning`) changes by their relative translation too, taken from the
-        relative motion at the start, ``W0 τ + A0 τ²/2`` (``A0`` the relative acceleration),
-        and the modes' departure from it, ``Σ P (S - τ) a + (C - τ²/2) b`` (zero on the rigid
-        modes): two groups moving alike keep their deformation exactly."""
-        tau = float(tau)
-        q, _ = self._modal_at(tau)
-        _, _, S, C, a, b = self._at
-        D = np.asarray(D0, float) + self.P @ q
-        spans = self.shape.spanning
-        if spans.size:
-            half = 0.5 * tau * tau
-            rel = [(s - tau) * x + (c - half) * y for s, c, x, y in zip(S, C, a, b)]
-            acc = self.shape.peak_of_force[len(D0):] @ self.force
-            if self.offset is not None:
-                acc = acc + self.offset[len(D0):]
-            for k in spans.tolist():
-                D[k] = D0[k] + (W0[k] * tau + (acc[k] - acc[k + 1]) * half
-                                + float(self.P[k] @ rel))
-        return D.tolist()
-
     def deformation(self, k: int, c: float, sign: float = 1.0) -> Series:
         """``c + sign ΔD_k(τ)`` (``sign`` ±1) as a :class:`Series`."""
         pa, pb = self._rows()
@@ -433,18 +391,6 @@ class Motion:
         if self._pa is None:
             self._pa = (self.P * self.a, self.P * self.b)
         return self._pa
-
-
-def frame(y, p, D):
-    """``(y, p)`` as the model reads deformations ``D`` (K, ...) [length] from them: every
-    position at the largest ``|x|`` (the positions' rounding, which tolerances such as
-    :func:`lsc.lock_law.force_rounding` read, as it was) and the gaps ``-D``, so that
-    ``x_k - x_{k+1} - gap_k`` is ``D_k`` exactly; the velocities (the closing rates) as they
-    are. ``y`` (2N, ...), ``p`` the model's parameters."""
-    D = np.asarray(D, float)
-    y, N = np.array(y, float), len(D) + 1
-    y[:N] = np.abs(y[:N]).max(axis=0)
-    return y, dict(p, gap=-D)
 
 
 def _modes(C, slope, root, held=()):

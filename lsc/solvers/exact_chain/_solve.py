@@ -24,7 +24,8 @@ from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _lines, _locks
 from ._brakes import Brakes
 from ._locks import LockTransitions
-from ._modes import Motion, Shape, deformation_map, frame
+from ._carry import Carried, deformations, event_rows, frame
+from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
 from ._roots import PER_RADIAN, Stack, earliest
 
@@ -55,7 +56,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     chain = _Chain(model)
     transitions = chain.parts = _transitions(model)
     start = time.perf_counter()
-    segments, events, y, disc, totals = run_segments(_Carried(transitions, chain), chain.advance,
+    segments, events, y, disc, totals = run_segments(Carried(transitions, chain), chain.advance,
                                                      t_end=t_end, max_events=max_events)
     notes = lock_warnings(events).get("warnings", []) + chain.warnings()
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
@@ -63,9 +64,9 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     if isinstance(transitions, LockTransitions):
         # (the locking model's forces, locked ones included, at the event points)
         model = transitions._locking
-        rows = chain.rows(segments, model)
+        rows = event_rows(chain, segments, model)
     else:
-        rows = chain.rows(segments)
+        rows = event_rows(chain, segments)
     # (a narrow rebound line's force, the line's own at the end it is at: ._lines)
     rows = _lines.line_rows(chain.lines, rows, segments, model)
     # the peaks between the events, located exactly by the chain's own search, all segments
@@ -126,34 +127,6 @@ class _Chain:
         # wrong impulse; the last end's state and deformations, what the transitions read)
         self.deformations, self.carried = [], None
 
-    def rows(self, segments, model=None) -> dict | None:
-        """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
-        every segment, in its own discrete state) from the states and the deformations carried
-        at the segments' ends (``None``: no segment): the forces ``model``'s (the chain's own by
-        default, evaluated once on all of them; a locking model's, its locked ones included,
-        segment by segment)."""
-        if not segments or len(segments) != len(self.ends):
-            return None
-        N = self.N
-        Y = np.array([y for pair in self.ends for y in pair]).T      # (2N, 2S)
-        # (the forces from the deformations carried, not from the positions: frame)
-        D = np.array([d for pair in self.deformations for d in pair]).T   # (K, 2S)
-        if model is None:
-            # each contact's (and brake's) discrete state on both ends of every segment, as
-            # arrays
-            disc = [_Ends(segments, k) for k in range(len(segments[0].disc))]
-            Yd, p = frame(Y, self.model.params, D)
-            F, _, acc = self.model.accelerations(Yd, disc, p)
-        else:
-            F, acc = np.empty(D.shape), np.empty((N, D.shape[1]))
-            for i, s in enumerate(segments):
-                ends = slice(2 * i, 2 * i + 2)
-                Yd, p = frame(Y[:, ends], model.params, D[:, ends])
-                f, _, a = model.accelerations(Yd, s.disc, p)
-                F[:, ends], acc[:, ends] = np.asarray(f, float), np.asarray(a, float)
-        return {"t": np.array([t for s in segments for t in (s.t0, s.t1)]), "x": Y[:N].T,
-                "v": Y[N:2 * N].T, "a": acc.T, "deformation": D.T, "force": F.T}
-
     def advance(self, t0, y0, disc, horizon) -> Step:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
@@ -207,7 +180,7 @@ class _Chain:
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
-        D1 = motion.deformations(tau, D0, W0)
+        D1 = deformations(motion, tau, D0, W0)
         stopped = None
         if event is not None and self.brakes:
             j, w = self.parts.events[event]
@@ -415,41 +388,6 @@ class _Chain:
             if lo >= budget and best is None:
                 return lo, None
         return (best, best_i) if best_i is not None else (None, None)
-
-
-class _Carried:
-    """The transitions the segment loop drives (``parts``), each event's read at the
-    deformations ``chain`` carried to the segment's end (:func:`~._modes.frame`), not at the
-    positions' differences; everything else is ``parts``' own."""
-
-    def __init__(self, parts, chain):
-        self._parts, self._chain = parts, chain
-
-    def __getattr__(self, name):
-        value = self.__dict__[name] = getattr(self._parts, name)   # (looked up once)
-        return value
-
-    def apply_event(self, i, t, y, disc, p, xp=None):
-        """``parts``' transition of event ``i`` at the end state ``y``, its deformations the
-        carried ones (where ``y`` is the last segment's end, as the loop passes it)."""
-        carried = self._chain.carried
-        if carried is not None and carried[0] is y:
-            y, p = frame(y, p, carried[1])
-        return self._parts.apply_event(i, t, y, disc, p)
-
-
-class _Ends(dict):
-    """Contact ``k``'s discrete state on both ends of every segment: each entry an array (2S,),
-    gathered when the law first reads it."""
-
-    def __init__(self, segments, k: int):
-        super().__init__()
-        self.segments, self.k = segments, k
-
-    def __missing__(self, name):
-        k = self.k   # (each segment's value twice, as np.repeat(values, 2) gives them)
-        value = self[name] = np.array([v for s in self.segments for v in (s.disc[k][name],) * 2])
-        return value
 
 
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
