@@ -38,6 +38,7 @@ from ._batch_peaks import extreme_values
 from ._batch_roots import earliest, start_times
 from ._modes import deformation_map
 from ._locks import LockTransitions
+from ._carry import Carried
 from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
 
 __all__ = ["solve_batch", "HANDOFF_EVENTS"]
@@ -157,7 +158,10 @@ class _Batch:
                                           enumerate(zip(self.laws, st))], axis=1), 0.0)
         first = _metrics.first_impacts_init(touching, v, F0, (F0 @ -self.C) / self.m, np)
         # the working set (ix: each member's index in the batch)
-        w = {"ix": np.arange(n), "x": x, "v": v, "t": np.zeros(n), "nev": touching.sum(axis=1),
+        # (D: the deformations, carried from segment to segment, not re-derived from x:
+        # ._solve._Chain)
+        w = {"ix": np.arange(n), "x": x, "v": v, "D": D, "t": np.zeros(n),
+             "nev": touching.sum(axis=1),
              "v_post": np.full((n, N), np.nan), "since": np.where(touching, 0.0, np.nan)}
         code = np.full(n, RUNNING)
         out = {"t": np.zeros(n), "v": np.zeros((n, N)), "v_post": np.zeros((n, N)),
@@ -222,6 +226,7 @@ class _Batch:
         chain.parts = parts
         disc = model.to_python([{key: a[i] for key, a in s.items()} for s in st])
         t, y, nev = float(w["t"][i]), np.concatenate([w["x"][i], w["v"][i]]), int(w["nev"][i])
+        chain.carried, parts = (y, w["D"][i].tolist()), Carried(parts, chain)
         horizon, events = model.crash_horizon, []
         try:
             while not parts.is_over(y, disc, t, horizon):
@@ -266,7 +271,7 @@ class _Batch:
         b, N, K = w["ix"].size, self.N, self.K
         ix = w["ix"]
         x0, v0 = w["x"], w["v"]
-        D0, W0 = x0 @ self.C.T - self.gap[ix], v0 @ self.C.T
+        D0, W0 = w["D"], v0 @ self.C.T
         S = lambda key: np.stack([s[key] for s in st], axis=1)   # noqa: E731
         slope = S("s")
         force = S("fa") + slope * (D0 - S("da"))
@@ -288,6 +293,7 @@ class _Batch:
         fresh = ~keep    # (left where their segment starts, untouched)
         tau = np.where(keep, tau, 0.0)
         x1, v1 = motion.state(tau)
+        D = motion.deformations(tau, D0, W0)
         keep &= mall(np.isfinite(x1) & np.isfinite(v1))
         # the peaks of the segment, for the contacts whose first impact is ongoing
         ongoing = _metrics.ongoing(first, np)
@@ -305,9 +311,9 @@ class _Batch:
             a_pk = np.zeros((b, N))
             F_pk[r], a_pk[r] = peaks[:, :K], peaks[:, K:]
             first = _metrics.fold_peaks(first, F_pk, a_pk, ongoing & look[:, None], np)
-        w = dict(w, x=x1, v=v1, t=w["t"] + tau, nev=w["nev"] + 1)
+        w = dict(w, x=x1, v=v1, D=D, t=w["t"] + tau, nev=w["nev"] + 1)
         # the law's transition, contact by contact
-        D, Wd = x1 @ self.C.T - self.gap[ix], v1 @ self.C.T
+        Wd = v1 @ self.C.T
         opens = np.zeros((b, K), bool)
         closes = np.zeros((b, K), bool)
         # (the law called once per contact and kind of event, that kind a Python int: the law
@@ -445,7 +451,7 @@ class _Batch:
         """(b,): every contact open and none closing again before the horizon
         (:meth:`HybridModel.contacts_apart`)."""
         ix = w["ix"]
-        D, W = w["x"] @ self.C.T - self.gap[ix], w["v"] @ self.C.T
+        D, W = w["D"], w["v"] @ self.C.T
         modes = np.stack([s["mode"] for s in st], axis=1)
         gaps = np.stack([law.closing_gap(D[:, k], s) for k, (law, s) in
                          enumerate(zip(self.laws, st))], axis=1)

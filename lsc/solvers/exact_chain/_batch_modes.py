@@ -287,7 +287,7 @@ class BatchMotion:
     """
 
     def __init__(self, m, x0, v0, slope, force, C, known=None):
-        self.x0, self.v0 = x0, v0
+        self.x0, self.v0, self.m, self.force, self.C = x0, v0, m, force, C
         b, N = m.shape
         root = np.sqrt(m)
         kappa, Q, have = known if known is not None else (np.zeros((b, N)),
@@ -301,6 +301,12 @@ class BatchMotion:
         self.kappa, self.Q = kappa, Q
         self.w = np.sqrt(kappa)
         self.T = Q / root[:, :, None]                                    # Δx = T q
+        for pattern in np.unique(code):   # (as :func:`._carry.rigid_rows`: a group's rigid
+            rows = np.flatnonzero(code == pattern)   # column one number on its vehicles)
+            group = _groups(on[rows[0]])
+            for g in range(int(group[-1]) + 1):
+                members = np.flatnonzero(group == g)
+                self.T[rows[:, None], members, g] = self.T[rows, members[0], g][:, None]
         f0 = force @ -C                                                  # (b, N)
         self.a = np.einsum("bji,bj->bi", Q, root * v0)                   # q'(0)
         self.b = np.einsum("bji,bj->bi", Q, f0 / root)                   # q''(0)
@@ -314,6 +320,25 @@ class BatchMotion:
         dq = S * self.b - self.kappa * C * self.a
         return (self.x0 + np.einsum("bij,bj->bi", self.T, q),
                 self.v0 + np.einsum("bij,bj->bi", self.T, dq))
+
+    def deformations(self, tau, D0, W0):
+        """The deformations (b, K) [length] each at its member's time ``tau`` (b,) from those
+        at the start ``D0`` and the closing rates ``W0`` (b, K), as
+        :func:`._carry.deformations`: ``D0 + P q(τ)``; a contact between two groups
+        (a rigid part in its row of ``P``) ``D0 + W0 τ + A0 τ²/2 + P ((S - τ) a + (C - τ²/2)
+        b)``, ``A0`` the relative acceleration at the start."""
+        S, C = basis(self.w, tau, exact=True)
+        t = np.asarray(tau, float)[:, None]
+        half = 0.5 * t * t
+        D = D0 + np.einsum("bkj,bj->bk", self.P, S * self.a + C * self.b)
+        rigid = (self.kappa == 0)[:, None, :]
+        spans = np.any((self.P != 0) & rigid, axis=2)
+        if not spans.any():
+            return D
+        acc = (self.force @ -self.C) / self.m
+        rel = np.where(rigid[:, 0], 0.0, (S - t) * self.a + (C - half) * self.b)
+        moved = W0 * t + (acc @ self.C.T) * half + np.einsum("bkj,bj->bk", self.P, rel)
+        return np.where(spans, D0 + moved, D)
 
     def rows(self, M) -> Sums:
         """``M q(τ)`` for rows ``M`` (b, F, N) of the modal coordinates, with ``c = 0``."""

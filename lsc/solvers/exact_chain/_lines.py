@@ -6,7 +6,8 @@ Such a line (``hi - lo`` below the start's rounding of a deformation, a near-pla
 on: a force ``fa + s (D - da)`` from them is the positions' rounding times ``s``. The pair is at
 one of its two ends, known from how it came onto the line and which of the line's events ended
 the segment; its force there is the line's own, from the law's numbers: ``fa`` at the top (the
-anchor, ``F_max`` on a rebound from ``D_max``), zero at the foot of the bottom piece.
+anchor, ``F_max`` on a rebound from ``D_max``), zero at the foot of the bottom piece. And the
+series of a solved chain (:class:`Sampler`), its forces from the deformations carried.
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ import math
 import numpy as np
 
 from ...laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING
-from ..segments import _Sampler, _values
+from ..segments import _full, _Sampler
+from ._carry import frame
 
 __all__ = ["force", "places", "leave", "line_rows", "Sampler"]
 
@@ -89,17 +91,17 @@ def line_rows(lines: list, rows, segments, model):
     """``rows`` (the event points': both ends of every segment) with the forces of the contacts
     on a narrow line the line's own (``lines``: each segment's ``{contact: (force at its start,
     at its end)}``, :func:`leave`) and the accelerations ``model``'s from them (its clusters'
-    and brakes' terms); every other contact's force as it was, ``model``'s from the
-    positions."""
+    and brakes' terms); every other contact's force as it was, ``model``'s from the rows'
+    deformations."""
     if rows is None or not any(lines):
         return rows
     for i, ends in enumerate(lines):
         for j, side in ((2 * i, 0), (2 * i + 1, 1)):
             given = {k: f[side] for k, f in ends.items() if f[side] is not None}
-            if given:
-                y = np.concatenate([rows["x"][j], rows["v"][j]])
-                rows["force"][j], rows["a"][j] = _given(model, y, segments[i].disc, given,
-                                                        model.params)
+            if given:   # (the other contacts' forces from the rows' deformations: frame)
+                y, p = frame(np.concatenate([rows["x"][j], rows["v"][j]]), model.params,
+                             rows["deformation"][j])
+                rows["force"][j], rows["a"][j] = _given(model, y, segments[i].disc, given, p)
     return rows
 
 
@@ -114,31 +116,34 @@ def _given(model, y, disc, given: dict, p):
 
 
 class Sampler(_Sampler):
-    """The series (:class:`~lsc.solvers.segments._Sampler`) with the forces of the contacts on
-    a narrow line the line's own: each segment's motion's from the line's force at its start,
-    ``F(0) + s ΔD(τ)`` (``ΔD`` the closed-form change of deformation, not the positions'), the
-    line's own at its two ends (:func:`leave`), and the accelerations ``model``'s from them;
-    ``chain``: the solved :class:`~._solve._Chain`."""
+    """The series (:class:`~lsc.solvers.segments._Sampler`) of a solved chain (``chain``, its
+    :class:`~._solve._Chain`): the positions and velocities of each segment's motion; the
+    deformations its start's, carried (not differences of the positions), plus the motion's
+    closed-form change ``P q(τ)``; the forces and accelerations ``model``'s from those, a
+    narrow line's contact's force the line's own (from the line's force at the segment's
+    start, ``F(0) + s ΔD(τ)``, and its own at its two ends, :func:`leave`)."""
 
     def __init__(self, model, segments, y_final, n_samples: int, chain):
         super().__init__(model, segments, y_final, n_samples)
         self.chain = chain
 
     def values(self, j: int, s, tt, pp) -> dict:
-        out = _values(self.model, s, tt, pp)
-        ends = {k: f for k, f in self.chain.lines[j].items() if f[0] is not None}
-        if not ends:
-            return out
-        motion = self.chain.records[j][1]
+        motion, n = self.chain.records[j][1], len(tt)
         t = np.asarray(tt, float) - s.t0
+        S, C = motion.modes.basis(t)
+        change = (S * motion.a + C * motion.b) @ motion.P.T                 # (n, K)
+        D = np.asarray(self.chain.deformations[j][0], float)[:, None] + change.T
+        y = np.asarray(s.dense(tt), float).reshape(self.model.n_state, n)
         given = {}
-        for k, (f0, f1) in ends.items():
+        for k, (f0, f1) in self.chain.lines[j].items():
+            if f0 is None:
+                continue
             f = f0 + float(s.disc[k]["s"]) * motion.deformation(k, 0.0)(t)
             f[0] = f0   # (the line's own at its ends: the first sample t0, the last t1)
             if f1 is not None:
                 f[-1] = f1
             given[k] = f
-        F, a = _given(self.model, out["y"], s.disc, given, pp)
-        out["force"] = np.broadcast_to(F, out["force"].shape)
-        out["a"] = np.broadcast_to(a, out["a"].shape)
-        return out
+        yd, p = frame(y, pp, D)
+        F, a = _given(self.model, yd, s.disc, given, p)
+        return {"y": y, "force": _full(F, (self.model.K, n)), "a": _full(a, (self.model.N, n)),
+                "deformation": D}

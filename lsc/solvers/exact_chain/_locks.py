@@ -26,6 +26,7 @@ import numpy as np
 
 from ...lock_law import force_rounding
 from ...locking import cluster_forces, clusters
+from ._carry import spanning
 from ._modes import Motion, Series, Shape, deformation_map
 
 __all__ = ["LockTransitions", "LockedShape", "locked", "project", "motion", "event_function",
@@ -97,6 +98,7 @@ class LockedShape:
         self.T = E @ reduced.T
         self.P = deformation_map(N) @ self.T      # (a locked contact's row: exactly 0)
         self.minus_kappa_P = -self.modes.kappa * self.P   # (as :class:`~._modes.Shape`'s)
+        self.spanning = spanning(self.P, self.modes.kappa)
         self.from_velocity = reduced.from_velocity @ ((E.T * m[None, :]) / m_r[:, None])
         self.from_force = reduced.from_force @ select
         rows, _ = cluster_forces(np.eye(K), m, groups, K)

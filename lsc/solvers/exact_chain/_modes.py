@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._carry import rigid_rows, spanning
 from ._eigen import _block_eigh, _factor_kappa
 
 __all__ = ["Modes", "Series", "Motion", "Shape", "deformation_map"]
@@ -261,9 +262,10 @@ class Shape:
         root = np.sqrt(m)
         kappa, Q = _modes(C, slope, root, held)
         self.modes = Modes(kappa)
-        self.T = Q / root[:, None]
+        self.T = rigid_rows(Q / root[:, None], self.modes.kappa)
         self.P = C @ self.T
         self.minus_kappa_P = -self.modes.kappa * self.P   # (each row as -κ * P[k] gives it)
+        self.spanning = spanning(self.P, self.modes.kappa)
         self.from_velocity = Q.T * root[None, :]
         self.from_force = self.T.T @ incidence
         # the contact forces and accelerations (K + N): from the forces at the start, and
@@ -319,7 +321,7 @@ class Motion:
 
     def __init__(self, m, x0, v0, slope, force, incidence, shape: Shape | None = None,
                  push=None):
-        self.m, self.x0, self.v0 = m, x0, v0
+        self.m, self.x0, self.v0, self.force = m, x0, v0, force
         shape = Shape(m, slope, incidence) if shape is None else shape
         self.shape = shape
         self.modes = shape.modes
@@ -331,16 +333,13 @@ class Motion:
             self.b = self.b + shape.T.T @ push
             self.offset = np.concatenate([np.zeros(len(force)), push / m])
         self.N = m.size
-        self._pa = self._rate = None
+        self._pa = self._rate = self._at = None
 
     def state(self, tau):
         """Positions and velocities (2N, ...) at times ``tau`` (...) into the segment."""
         if isinstance(tau, float) or np.ndim(tau) == 0:   # (one time: the modal terms on
             # Python floats, same arithmetic)
-            S, C = self.modes.basis_at(float(tau))
-            a, b = self.a.tolist(), self.b.tolist()
-            q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
-            dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+            q, dq = self._modal_at(float(tau))
             return np.concatenate([self.x0 + self.T @ q, self.v0 + self.T @ dq])
         S, C = self.modes.basis(np.atleast_1d(tau))
         q = S * self.a + C * self.b
@@ -349,6 +348,19 @@ class Motion:
         v = self.v0[:, None] + self.T @ dq.T
         out = np.concatenate([x, v])
         return out[:, 0] if np.ndim(tau) == 0 else out
+
+    def _modal_at(self, tau: float) -> tuple[list, list]:
+        """``q(τ)`` and ``q'(τ) - q'(0)`` (lists, n) at one time ``tau`` [s] (the last time's
+        kept, with its basis ``S, C`` and ``a, b`` as lists: a segment's end is asked for its
+        state, then its deformations)."""
+        if self._at is not None and self._at[0] == tau:
+            return self._at[1]
+        S, C = self.modes.basis_at(tau)
+        a, b = self.a.tolist(), self.b.tolist()
+        q = [s * x + c * y for s, c, x, y in zip(S, C, a, b)]
+        dq = [s * y - k * c * x for s, c, x, y, k in zip(S, C, a, b, self.modes._kappa)]
+        self._at = (tau, (q, dq), S, C, a, b)
+        return q, dq
 
     def deformation(self, k: int, c: float, sign: float = 1.0) -> Series:
         """``c + sign ΔD_k(τ)`` (``sign`` ±1) as a :class:`Series`."""

@@ -18,12 +18,13 @@ import time
 import numpy as np
 
 from ...errors import SimulationError
-from ..segments import Step, build_result, event_rows, run_segments
+from ..segments import Step, build_result, run_segments
 from ...laws import MODE_UNLOADING
 from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _lines, _locks
 from ._brakes import Brakes
 from ._locks import LockTransitions
+from ._carry import Carried, deformations, event_rows, frame
 from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
 from ._roots import PER_RADIAN, Stack, earliest
@@ -55,7 +56,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     chain = _Chain(model)
     transitions = chain.parts = _transitions(model)
     start = time.perf_counter()
-    segments, events, y, disc, totals = run_segments(transitions, chain.advance,
+    segments, events, y, disc, totals = run_segments(Carried(transitions, chain), chain.advance,
                                                      t_end=t_end, max_events=max_events)
     notes = lock_warnings(events).get("warnings", []) + chain.warnings()
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
@@ -63,9 +64,9 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     if isinstance(transitions, LockTransitions):
         # (the locking model's forces, locked ones included, at the event points)
         model = transitions._locking
-        rows = event_rows(model, segments, y)
+        rows = event_rows(chain, segments, model)
     else:
-        rows = chain.rows(segments)
+        rows = event_rows(chain, segments)
     # (a narrow rebound line's force, the line's own at the end it is at: ._lines)
     rows = _lines.line_rows(chain.lines, rows, segments, model)
     # the peaks between the events, located exactly by the chain's own search, all segments
@@ -73,7 +74,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     result = build_result(model, segments, events, y, disc, method="exact-chain",
                           tolerances={}, stats=stats, n_samples=n_samples,
                           y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
-    if any(chain.lines):   # (the series too: ._lines.Sampler)
+    if len(chain.records) == len(segments):   # (the series from the deformations carried)
         result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
     return result
 
@@ -124,27 +125,17 @@ class _Chain:
         # is at the last segment's end, 0 foot 1 top; that segment's discrete state; a
         # narrow line's contact where its place is not known: the first time)
         self.lines, self.places, self.before, self.unknown, self.t0 = [], {}, None, {}, 0.0
-
-    def rows(self, segments) -> dict | None:
-        """The rows at the event points (:func:`~lsc.solvers.segments.event_rows`: both ends of
-        every segment, in its own discrete state) from the states at the segments' ends, the
-        model's forces evaluated once on all of them (``None``: no segment)."""
-        if not segments or len(segments) != len(self.ends):
-            return None
-        N = self.N
-        Y = np.array([y for pair in self.ends for y in pair]).T      # (2N, 2S)
-        # each contact's (and brake's) discrete state on both ends of every segment, as arrays
-        disc = [_Ends(segments, k) for k in range(len(segments[0].disc))]
-        p = dict(self.model.params, gap=self.gap[:, None])
-        F, _, acc = self.model.accelerations(Y, disc, p)
-        D, _ = self.model.deformation(Y, p)
-        return {"t": np.array([t for s in segments for t in (s.t0, s.t1)]), "x": Y[:N].T,
-                "v": Y[N:2 * N].T, "a": acc.T, "deformation": D.T, "force": F.T}
+        # (the deformations at both ends of each segment, each start's the last end's, carried
+        # from segment to segment in the modes, not re-derived from the positions: their
+        # rounding, an ulp of how far the chain has gone, times a stiff contact's slope, was a
+        # wrong impulse; the last end's state and deformations, what the transitions read)
+        self.deformations, self.carried = [], None
 
     def advance(self, t0, y0, disc, horizon) -> Step:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
         y0, self.t0 = np.asarray(y0, float), t0
+        carried = self.carried[1] if self.carried and self.carried[0] is y0 else None
         lock = _locks.locked(self.parts, disc)
         if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
             y0 = _locks.project(self, y0, lock)
@@ -153,16 +144,17 @@ class _Chain:
             y0 = y0.copy()
             y0[[self.N + i for i in held]] = 0.0
         x0, v0 = y0[: self.N], y0[self.N: 2 * self.N]
-        # (the deformations and closing rates as Python floats, D = C x - gap and W = C v with
-        # C's rows x_k - x_(k+1): the same arithmetic as on NumPy's values, several times
-        # cheaper)
+        # (the deformations, carried from the last segment where it ended this one (._carry),
+        # and the closing rates, as Python floats: D = C x - gap and W = C v with C's rows
+        # x_k - x_(k+1), the same arithmetic as on NumPy's values, several times cheaper)
         x, v = x0.tolist(), v0.tolist()
-        D0 = [a - b - g for a, b, g in zip(x, x[1:], self.gaps)]
+        D0 = carried if carried is not None else [a - b - g for a, b, g in
+                                                  zip(x, x[1:], self.gaps)]
         W0 = [a - b for a, b in zip(v, v[1:])]
         contacts = disc[: self.K]
         key = tuple(float(st["s"]) for st in contacts)
         tol_d = self._tol_d(x0)
-        self.bounce = self._bounces(contacts, W0, disc, x0, v0, tol_d)
+        self.bounce = self._bounces(contacts, D0, W0, disc, x0, v0, tol_d)
         # (a narrow line's contact at its top or foot: the line's force there, and its
         # deformation relative to the line from there, not from the positions' rounding)
         lines = _lines.places(self, contacts, tol_d)
@@ -195,6 +187,7 @@ class _Chain:
         if event is None:
             tau = max(horizon - t0, 0.0)
         end = motion.state(tau)
+        D1 = deformations(motion, tau, D0, W0)
         stopped = None
         if event is not None and self.brakes:
             j, w = self.parts.events[event]
@@ -204,6 +197,8 @@ class _Chain:
         self.records.append((t0, motion, force, tau,
                              self._unsearched(motion, funcs, disc, force.tolist(), key, lock)))
         self.ends.append((y0, end))
+        self.deformations.append((D0, D1))
+        self.carried = (end, D1)
         _lines.leave(self, lines, event, tau, disc)
 
         def dense(tt, motion=motion, t0=t0, t1=t0 + tau, stopped=stopped):
@@ -289,7 +284,8 @@ class _Chain:
                                        st["hi"] - st["da"] + (0.0 if lines[k] else st["wl"]),
                                        -1.0)
             if k not in leaves:
-                leaves[k] = self._leaves_narrow_line(k, st, W0, disc, x0, v0, tol_d, tol_w)
+                leaves[k] = self._leaves_narrow_line(k, st, D0, W0, disc, x0, v0, tol_d,
+                                                     tol_w)
             tol = NOW if leaves[k] == which else tol_d
             out.append((i, g, tol))
         return out
@@ -303,7 +299,7 @@ class _Chain:
         deformation's aside."""
         return START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist()))
 
-    def _bounces(self, contacts, W0, disc, x0, v0, tol_d) -> tuple:
+    def _bounces(self, contacts, D0, W0, disc, x0, v0, tol_d) -> tuple:
         """The contacts that close onto a narrow unloading line slower than it can stop them
         (:meth:`_leaves_narrow_line` 2): each bounces on it, elastically, from its foot
         (``tol_d``: :meth:`_tol_d` at the start)."""
@@ -312,9 +308,9 @@ class _Chain:
         if not closing:
             return ()
         return tuple(k for k in closing if self._leaves_narrow_line(
-            k, contacts[k], W0, disc, x0, v0, tol_d, math.inf) == 2)
+            k, contacts[k], D0, W0, disc, x0, v0, tol_d, math.inf) == 2)
 
-    def _leaves_narrow_line(self, k, st, W0, disc, x0, v0, tol_d, tol_w):
+    def _leaves_narrow_line(self, k, st, D0, W0, disc, x0, v0, tol_d, tol_w):
         """Which end (0 lower, 1 upper) contact ``k`` leaves its unloading line by at once,
         where the line is narrower than the start's resolution ``tol_d`` [length] and the pair
         is not clearly closing nor opening (``|Ḋ| <= tol_w`` [velocity]); ``None`` otherwise;
@@ -337,7 +333,8 @@ class _Chain:
         model = getattr(self.parts, "_locking", self.model)   # (with the locks held)
         locked = _locks.locked(self.parts, disc)
         mask = [j == k or j in locked for j in range(self.K)]
-        _, press = pressed(model, np.concatenate([x0, v0]), disc, model.params, mask)
+        y, p = frame(np.concatenate([x0, v0]), model.params, D0)   # (D0's forces: frame)
+        _, press = pressed(model, y, disc, p, mask)
         if press[k]:
             return 1
         # (closing faster than the line can stop: its kinetic energy of closing, the two sides
@@ -357,10 +354,10 @@ class _Chain:
     def warnings(self) -> list[str]:
         """One warning per contact on a rebound line narrower than the start resolves at a
         point of it that the solve does not know (:func:`._lines.places`)."""
-        return [f"contact {k} was at t = {t:.6g} s on its rebound line, narrower than the "
-                "positions resolve, at a point of it the solve does not know (not its top nor "
-                "its foot): the forces and accelerations recorded there are its rounding (its "
-                "slope times the positions' ulps)" for k, t in sorted(self.unknown.items())]
+        return [f"contact {k} was at t = {t:.6g} s on its rebound line, narrower than a "
+                "segment's start resolves, at a point of it the solve does not know (not its top "
+                "nor its foot): the forces and accelerations recorded there are its rounding (its "
+                "slope times its deformation's rounding)" for k, t in sorted(self.unknown.items())]
 
     def _earliest(self, motion, funcs, limit):
         """``(τ, event index)`` of the first event within ``limit`` [s] (``(None, None)``:
@@ -398,20 +395,6 @@ class _Chain:
             if lo >= budget and best is None:
                 return lo, None
         return (best, best_i) if best_i is not None else (None, None)
-
-
-class _Ends(dict):
-    """Contact ``k``'s discrete state on both ends of every segment: each entry an array (2S,),
-    gathered when the law first reads it."""
-
-    def __init__(self, segments, k: int):
-        super().__init__()
-        self.segments, self.k = segments, k
-
-    def __missing__(self, name):
-        k = self.k   # (each segment's value twice, as np.repeat(values, 2) gives them)
-        value = self[name] = np.array([v for s in self.segments for v in (s.disc[k][name],) * 2])
-        return value
 
 
 def _start(g, tol: float, omega: float, limit: float) -> float | None:
