@@ -65,3 +65,17 @@ def test_the_first_step_estimate_overflowing_is_no_warning():
         warnings.simplefilter("error")
         r = lsc.solve(_scene(1e-200), method="scipy")
     np.testing.assert_allclose(r.delta_v, PLASTIC_DV, rtol=1e-9)
+
+
+@pytest.mark.parametrize("e", [1e-9, 1e-6])
+def test_an_overflowing_trial_step_is_no_warning(e):
+    """At e = 1e-9 (and 1e-6) SciPy's trial steps across the Hunt–Crossley pulse overflowed the
+    force (its damping ~1/e): SciPy rejected them and shortened the step, and some twenty
+    RuntimeWarnings ('overflow encountered in scalar multiply', 'invalid value encountered in
+    dot') reached the user beside a right answer, (1 + e) times the plastic ΔV."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = lsc.solve(_scene(e), method="scipy")
+    np.testing.assert_allclose(r.delta_v, (1 + e) * PLASTIC_DV, rtol=1e-8)

@@ -437,7 +437,11 @@ def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, 
                     "s and no event: the motion is too stiff (or too long) for this integrator "
                     f"at this tolerance; try {_other(integrator)}, a larger rtol, or raise "
                     "solver.max_steps")
-            message = solver.step()
+            # (a trial step that overflows, the force of a near-plastic Hunt-Crossley pulse at
+            # a step too long, has an error norm inf or NaN: SciPy rejects it and shortens the
+            # step; the steps it accepts are finite, as before)
+            with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+                message = solver.step()
             if solver.status == "failed":
                 raise SimulationError(f"SciPy {integrator} failed at t = {solver.t:.6g} s: "
                                       f"{message}")
