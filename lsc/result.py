@@ -20,6 +20,7 @@ import numpy as np
 from . import metrics as _metrics
 from .errors import SimulationError
 from .impacts import Impact, check_resolved, find_impacts, last_speeds
+from .laws.damping_tails import damping_tails
 
 __all__ = ["Result", "Event", "Impact", "METRICS"]
 
@@ -161,7 +162,7 @@ class Result:
         _check_series(method, r.__dict__.get("_series", rows))
         r.sampler = sampler
         r.warnings = tuple(str(w) for w in r.stats.get("warnings", ())) + \
-            _damping_tails(scene, contacts)
+            damping_tails(scene, contacts)
         r.v_final = np.asarray(v_final, float)
         v_max = float(np.max(np.abs(rows["v"]), initial=0.0))
         r.impacts = find_impacts(rows, r.events, r.v_final, contacts, speeds=scene.speeds,
@@ -409,39 +410,6 @@ def _first_record(impacts, K: int, v_max: float) -> dict:
 
 #: The first-impact record's fields with a (rear, front) pair per contact.
 _PAIRED = ("v_touch", "v_sep", "peak_acc")
-
-
-#: The factor of a damping law's force that decides its rebound's end: ``F = k D^n (1 + α Ḋ)``
-#: (Hunt–Crossley), ``F = D (k + c Ḋ)`` (Brach).
-_DAMPING_FACTORS = {"hunt-crossley": "1 + α dD/dt", "brach": "k + c dD/dt"}
-#: A damping law's contact that separates above this fraction of its max deformation ended its
-#: rebound on its damping factor, not at ``D = 0``.
-_TAIL = 1e-9
-
-
-def _damping_tails(scene, contacts) -> tuple:
-    """A warning for each Hunt–Crossley or Brach contact whose rebound ended where its damping
-    factor (:data:`_DAMPING_FACTORS`) reached zero, at a deformation above :data:`_TAIL` of its
-    max. By the law's energy relation that factor only tends to zero as the rebound speed tends to
-    its limit (the integral of ``μ u du`` over the factor diverges there), so the force ends at
-    ``D = 0``; at a small restitution (Brach from about 0.05, Hunt–Crossley from about 0.01) the
-    factor falls below the solver's rounding long before, and where it is taken to reach zero
-    depends on the tolerance: the impact's duration, its separation time and the deformation
-    left at separation are not converged."""
-    out = []
-    for k, (contact, rec) in enumerate(zip(scene.contacts, contacts)):
-        name = getattr(contact.law, "law", None)
-        dmax, dsep = float(rec["dmax"]), float(rec["dperm"])
-        if name in _DAMPING_FACTORS and dmax > 0 and dsep > _TAIL * dmax:
-            out.append(
-                f"contact {k} ({name}): its rebound ended where the force's damping factor "
-                f"({_DAMPING_FACTORS[name]}) reached zero to the solver's rounding, at a "
-                f"deformation of {dsep:.4g} ({dsep / dmax:.3g} of its max), where the law's "
-                "force ends at zero deformation: at this restitution the force falls below the "
-                "solver's resolution long before that, so the impact's duration, separation time "
-                "and the deformation left at separation are where rounding put them (they change "
-                "with rtol); the ΔV is not affected")
-    return tuple(out)
 
 
 def _failure_times(scene, events, rows) -> np.ndarray:
