@@ -90,9 +90,9 @@ class Carried:
     def apply_event(self, i, t, y, disc, p, xp=None):
         """``parts``' transition of event ``i`` at the end state ``y``, its deformations the
         carried ones (where ``y`` is the last segment's end, as the loop passes it)."""
-        carried = self._chain.carried
-        if carried is not None and carried[0] is y:
-            y, p = frame(y, p, carried[1])
+        carried = self._chain.carried_at(y)
+        if carried is not None:
+            y, p = frame(y, p, carried)
         return self._parts.apply_event(i, t, y, disc, p)
 
 

@@ -105,10 +105,8 @@ class _Chain:
         p = model.params
         self.N, self.K = model.N, model.K
         self.m = np.asarray(p["m"], float)
-        self.gap = np.asarray(p["gap"], float)
-        self.gaps = self.gap.tolist()
-        self.C = deformation_map(self.N)
-        self.incidence = -self.C.T
+        self.gaps = np.asarray(p["gap"], float).tolist()
+        self.incidence = -deformation_map(self.N).T
         # (a Python float, the same number, kept on the model: the scalar arithmetic of every
         # segment's search is several times cheaper on floats than on NumPy's scalars)
         self.t_scale = model.__dict__.get("_chain_time_scale")
@@ -131,11 +129,17 @@ class _Chain:
         # wrong impulse; the last end's state and deformations, what the transitions read)
         self.deformations, self.carried = [], None
 
+    def carried_at(self, y) -> list | None:
+        """The deformations (K,) [length] carried to the last segment's end where ``y`` is that
+        end's state, as the segment loop passes it on (``None`` otherwise: none carried)."""
+        carried = self.carried
+        return carried[1] if carried is not None and carried[0] is y else None
+
     def advance(self, t0, y0, disc, horizon) -> Step:
         """The segment from ``(t0, y0)`` in discrete state ``disc`` to its first event (or to
         ``horizon`` [s])."""
         y0, self.t0 = np.asarray(y0, float), t0
-        carried = self.carried[1] if self.carried and self.carried[0] is y0 else None
+        carried = self.carried_at(y0)
         lock = _locks.locked(self.parts, disc)
         if lock:   # (a cluster moves as one body: lsc.locking, ._locks)
             y0 = _locks.project(self, y0, lock)
