@@ -22,7 +22,7 @@ import numpy as np
 from ._eigen import _factor_kappa
 
 __all__ = ["BatchMotion", "ModesCache", "Sums", "basis", "half_angle", "msum", "mmax", "mmin",
-           "many", "mall", "first_true"]
+           "many", "many_rows", "mall", "first_true"]
 
 
 def msum(x):
@@ -67,6 +67,17 @@ def mmin(x):
 def many(x):
     """``np.any(x, axis=-1)`` of a bool array (see :data:`SHORT`)."""
     return _columns_fold(x, np.logical_or, np.any)
+
+
+def many_rows(x):
+    """``np.any(x, axis=1)`` of a bool array (b, F, ...) of a few functions ``F`` (one pass
+    per function: several times cheaper than NumPy's reduction over a middle axis)."""
+    if x.shape[1] < 2 or x.shape[1] >= SHORT:
+        return np.any(x, axis=1)
+    out = x[:, 0] | x[:, 1]
+    for j in range(2, x.shape[1]):
+        out |= x[:, j]
+    return out
 
 
 def mall(x):
