@@ -270,6 +270,9 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
 
 
 F_BIG = np.iinfo(np.int64).max
+#: Brackets so few that :func:`refine` computes on its closed ones rather than compacting its
+#: arrays (a compaction costs what several iterations on so few do).
+_SHORT_REFINE = 64
 
 
 def refine(g: Sums, a, b, fa, fb, iterations: int = 100, rtol: float = 4 * _EPS):
@@ -357,12 +360,12 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
             at = live[done]
             x[at] = np.where(cycle[done], x[at], xl[done])
             act &= ~done
-            # (the brackets closed are compacted away once they are half the arrays; until
-            # then they are computed on, unread)
+            # (the brackets closed are compacted away once they are half the arrays, and the
+            # arrays longer than :data:`_SHORT_REFINE`; until then they are computed on, unread)
             n_act = int(np.count_nonzero(act))
             if not n_act:
                 return x
-            if 2 * n_act <= act.size:
+            if act.size > _SHORT_REFINE and 2 * n_act <= act.size:
                 keep = act
                 live, rigid, inv, half, al, ga, kal, c, S, C = (
                     live[keep], rigid[keep], inv[keep], half[keep], al[keep], ga[keep],
