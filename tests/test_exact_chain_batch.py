@@ -562,6 +562,29 @@ def test_the_column_reductions_are_numpys():
         assert (~b.any(-1)).any() and b.any(-1).any()
 
 
+def test_many_rows_is_numpys():
+    """``_batch_modes.many_rows`` (a pass per function) is ``np.any(x, axis=1)``, on few
+    functions and many (NumPy's own there)."""
+    from lsc.solvers.exact_chain._batch_modes import many_rows
+    rng = np.random.default_rng(5)
+    for F in (1, 2, 3, 6, 16, 20):
+        b = rng.random((40, F, 9)) < 0.05
+        assert np.array_equal(many_rows(b), np.any(b, axis=1)), F
+        assert (~np.any(b, axis=1)).any() and np.any(b, axis=1).any()
+
+
+def test_searched_functions_first_is_a_stable_argsort():
+    """``_batch_roots._searched_first`` (the pattern's order looked up where the rows
+    outnumber the patterns) is ``np.argsort(~search, axis=1, kind="stable")``, both ways."""
+    from lsc.solvers.exact_chain._batch_roots import _searched_first
+    rng = np.random.default_rng(6)
+    for b, F in ((5, 6), (64, 6), (3000, 6), (600, 9), (100, 15), (40, 1)):
+        search = rng.random((b, F)) < 0.4
+        search[0] = False
+        assert np.array_equal(_searched_first(search),
+                              np.argsort(~search, axis=1, kind="stable")), (b, F)
+
+
 def test_the_stacked_basis_is_the_basis():
     """``_batch_modes.stacked_basis`` (``[S; C]`` laid out mode by mode for the search's
     products) holds :func:`_batch_modes.basis`'s numbers bit for bit: mode 0 rigid in every

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, mmax, mmin
+from ._batch_modes import Sums, many, mmax, mmin
 from ._batch_roots import MAX_WINDOWS, WINDOW, refine
 from ._roots import EXTREMUM_RTOL, PER_RADIAN
 
@@ -74,43 +74,53 @@ def extreme_values(g: Sums, T, largest, turns=None, bars=None):
         else:
             np.fmax.at(top, r, mmax(vals))
             np.fmin.at(bottom, r, mmin(vals))
-        a, c = dv[..., :-1], dv[..., 1:]
-        w = (tt[:, 1:] - tt[:, :-1])[:, None, :]
-        margin = Bd[r][:, :, None] * w ** 2 / 8.0
+        # the derivative's sign changes and grazing intervals, on the functions that may turn
+        # only (the pairs ``pm, pj`` of row and function)
+        pm, pj = np.nonzero(turns[r] if turns is not None else np.ones(dv.shape[:2], bool))
+        dvp = dv[pm, pj]
+        a, c = dvp[:, :-1], dvp[:, 1:]                                       # (P, W)
+        w = tt[:, 1:] - tt[:, :-1]                                          # (m, W)
+        wp = w[pm]
+        margin = Bd[r[pm], pj][:, None] * wp ** 2 / 8.0
         change = (a * c <= 0) & (a != c)
-        if turns is not None:
-            turning = turns[r][:, :, None]
-            change &= turning
         if change.any():
             # (a zero of g' whose value cannot beat the peak so far need not be refined:
             # there |g| <= min(|g(a)|, |g(b)|) + w (max |g'| + B w²/8))
             # (on the sign changes only)
-            m, j, i = np.nonzero(change)
-            am, cm = a[m, j, i], c[m, j, i]
+            p, i = np.nonzero(change)
+            m, j = pm[p], pj[p]
+            am, cm = a[p, i], c[p, i]
             reach = (np.minimum(np.abs(vals[m, j, i]), np.abs(vals[m, j, i + 1]))
-                     + w[m, 0, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[m, j, i]))
+                     + w[m, i] * (np.maximum(np.abs(am), np.abs(cm)) + margin[p, i]))
             tm, bm = top[r[m], j], bottom[r[m], j]
             peak = np.where(largest[r[m], j], tm, np.maximum(np.abs(tm), np.abs(bm)))
             if bars is not None:
                 peak = np.maximum(peak, bars[r[m], j])
-            m, j, i = (x[~(reach < peak)] for x in (m, j, i))
-            zeros.append((r[m], j, tt[m, i], tt[m, i + 1], a[m, j, i], c[m, j, i],
+            p, i = (x[~(reach < peak)] for x in (p, i))
+            m, j = pm[p], pj[p]
+            zeros.append((r[m], j, tt[m, i], tt[m, i + 1], a[p, i], c[p, i],
                           dl.take(m, j), gl.take(m, j)))
         low = np.minimum(np.abs(a), np.abs(c))
         grazing = ~change & (low <= margin)
-        if turns is not None:
-            grazing &= turning
         new = []
         if grazing.any():
-            q = np.flatnonzero(grazing.any(axis=(1, 2)))     # (the rows that have some)
-            rq, wq = r[q], w[q]
+            # (the rows that have some, each function's intervals there)
+            some = many(grazing)
+            rows = pm[some]                  # (in order: ``pm`` is)
+            fresh = np.r_[True, rows[1:] != rows[:-1]]
+            q = rows[fresh]
+            rq, wq = r[q], w[q][:, None, :]
+            at = (np.cumsum(fresh) - 1, pj[some])
             size = np.maximum(np.abs(top[rq]), np.abs(bottom[rq]))[:, :, None]
-            excess = wq * (margin[q] - low[q])
+            excess = np.zeros((q.size,) + dv[..., 1:].shape[1:])
+            excess[at] = wp[some] * (margin[some] - low[some])
+            grazed = np.zeros(excess.shape, bool)
+            grazed[at] = grazing[some]
             ddv = dd.take(rq).on(SC[q])
             e, f = ddv[..., :-1], ddv[..., 1:]
             monotone = (e * f > 0) & (np.minimum(np.abs(e), np.abs(f))
                                       > Bdd[rq][:, :, None] * wq ** 2 / 8.0)
-            bad = grazing[q] & ~monotone & (excess > FLAT * size)             # (m, F, W)
+            bad = grazed & ~monotone & (excess > FLAT * size)                 # (m, F, W)
             deep = bad & (level[q] >= PEAK_LEVELS)[:, None, None]
             if deep.any():   # (judged at the end, against the function's size on [0, T])
                 m, j, i = np.nonzero(deep)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch_modes import Sums, first_true, half_angle, many, mmax, mmin, msum
+from ._batch_modes import Sums, first_true, half_angle, many, many_rows, mmax, msum
 from ._roots import PER_RADIAN, TOUCH
 from ._solve import fastest_entering, start_rounding, taylor_span
 
@@ -86,7 +86,7 @@ def earliest(g: Sums, armed, start, limit):
     M = max(int(search.sum(axis=1).max(initial=0)), 1)
     if M < F:
         # (the functions searched, packed into M columns in their order: one event's few)
-        order = np.argsort(~search, axis=1, kind="stable")[:, :M]
+        order = _searched_first(search)[:, :M]
         tau, which, undecided = _earliest(_columns(g, order),
                                           np.take_along_axis(search, order, axis=1),
                                           np.take_along_axis(start, order, axis=1), limit)
@@ -94,6 +94,20 @@ def earliest(g: Sums, armed, start, limit):
         which[got] = order[np.flatnonzero(got), which[got]]
         return tau, which, undecided
     return _earliest(g, search, start, limit)
+
+
+def _searched_first(search):
+    """Each row's columns, those ``search`` (b, F) first, each part in order:
+    ``np.argsort(~search, axis=1, kind="stable")``, looked up by the row's pattern where the
+    rows outnumber the patterns (NumPy sorts each short row at a cost of some hundred ns)."""
+    b, F = search.shape
+    if b < (1 << F):
+        return np.argsort(~search, axis=1, kind="stable")
+    code = np.zeros(b, np.int64)
+    for j in range(F):
+        code |= search[:, j].astype(np.int64) << j
+    bits = ((np.arange(1 << F)[:, None] >> np.arange(F)) & 1).astype(bool)
+    return np.argsort(~bits, axis=1, kind="stable")[code]
 
 
 def _columns(g: Sums, order) -> Sums:
@@ -184,42 +198,47 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
     todo = np.arange(n)
     steps = count
     for level in range(LEVELS + 1):
-        gg = g if level == 0 else g.take(todo)   # (level 0: every member, as they come)
+        # (level 0: every member, as they come, no copies)
+        sub = slice(None) if level == 0 else todo
+        gg = g if level == 0 else g.take(todo)
         m = todo.size
         tt = np.minimum(a[:, None] + h[:, None] * np.arange(steps + 1), end[:, None])
         tt[:, -1] = end
         vals = gg.at(tt)                                              # (m, F, steps + 1)
-        ok = search[todo][:, :, None]
-        s0 = start[todo][:, :, None]
-        # (where a searched function starts at or before the window, and before its second
-        # sample: the values themselves; the others' are masked by ``ok``; one that starts
-        # inside its first interval: its value at its start there, written over the first
-        # sample's, which nothing else reads)
+        ok0, s0, gs = search[sub], start[sub], g_start[sub]
+        margin = (B[sub] * h[:, None] ** 2 / 8.0)[:, :, None]
         left, right = vals[..., :-1], vals[..., 1:]
-        sf = s0[..., 0]
-        inside = ok[..., 0] & (sf > tt[:, :1])
-        if inside.any():
-            far = np.flatnonzero(many(inside & (sf >= tt[:, 1:2])))
-            if far.size:     # (later still: the intervals before its start masked)
-                left, right = left.copy(), right.copy()
-                t0, t1, sl = tt[far, None, :-1], tt[far, None, 1:], s0[far]
-                left[far] = np.where(t0 < sl, np.where(t1 > sl, g_start[todo[far]][:, :, None],
-                                                       np.inf), left[far])
-                right[far] = np.where(t1 <= sl, np.inf, right[far])
-            at, j = np.nonzero(inside & (sf < tt[:, 1:2]))
-            left[at, j, 0] = g_start[todo[at], j]
-        margin = (B[todo] * h[:, None] ** 2 / 8.0)[:, :, None]
-        cross = ok & (right <= 0)
-        unclear = ok & ~cross & (np.minimum(left, right) <= margin)
-        hit = cross | unclear
-        first = first_true(hit, steps)                                     # (m, F)
-        i = mmin(first)                                                     # (m,)
+        # an interval is hit where its function may be zero in it: a sign change (``right <=
+        # 0``: a crossing) or samples the bound cannot clear (unclear)
+        hit = np.minimum(left, right) <= margin
+        hit |= right <= 0
+        hit &= ok0[:, :, None]
+        # (a searched function that starts inside the window (``inside``, the pairs ``pm,
+        # pj``): its intervals before its start masked (infinite samples), the one its start is
+        # in taken from its value there)
+        inside = ok0 & (s0 > tt[:, :1])
+        pm, pj = np.nonzero(inside) if inside.any() else (None, None)
+        if pm is not None:
+            t0, t1, sl = tt[pm, :-1], tt[pm, 1:], s0[pm, pj][:, None]
+            l_in = np.where(t0 < sl, np.where(t1 > sl, gs[pm, pj][:, None], np.inf),
+                            left[pm, pj])
+            r_in = np.where(t1 <= sl, np.inf, right[pm, pj])
+            h_in = np.minimum(l_in, r_in) <= margin[pm, pj]
+            h_in |= r_in <= 0
+            hit[pm, pj] = h_in
+        # each member's first interval hit by any function
+        i = first_true(many_rows(hit), steps)                           # (m,)
         none = i == steps
         ic = np.minimum(i, steps - 1)
-        at = (first == i[:, None]) & ~none[:, None]
         rows = np.arange(m)
-        cr = at & cross[rows, :, ic]
-        deeper = many(at & unclear[rows, :, ic])
+        at = hit[rows, :, ic] & ~none[:, None]
+        lc, rc = left[rows, :, ic], right[rows, :, ic]                      # (m, F)
+        if pm is not None:
+            p = np.arange(pm.size)
+            lc[pm, pj], rc[pm, pj] = l_in[p, ic[pm]], r_in[p, ic[pm]]
+        crossing = rc <= 0
+        cr = at & crossing
+        deeper = many(at & ~crossing)
         brack = many(cr) & ~deeper
         # an interval narrower than TOUCH of its time that the bound cannot clear is a
         # tangency, not a crossing (as :func:`._roots._hunt` decides): the search goes on
@@ -234,8 +253,7 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
             mem = r[rr]
             ta = np.maximum(tt[mem, ic[mem]], start[todo[mem], jj])
             brackets.append((members[todo[mem]], jj, ta, tt[mem, ic[mem] + 1],
-                             left[mem, jj, ic[mem]], right[mem, jj, ic[mem]],
-                             gg.take(mem, jj)))
+                             lc[mem, jj], rc[mem, jj], gg.take(mem, jj)))
             found[todo[r]] = True
         if level == LEVELS:
             stuck[todo[deeper]] = True
@@ -252,6 +270,9 @@ def _window(g, B, start, g_start, lo, step, limit, search, count, brackets, memb
 
 
 F_BIG = np.iinfo(np.int64).max
+#: Brackets so few that :func:`refine` computes on its closed ones rather than compacting its
+#: arrays (a compaction costs what several iterations on so few do).
+_SHORT_REFINE = 64
 
 
 def refine(g: Sums, a, b, fa, fb, iterations: int = 100, rtol: float = 4 * _EPS):
@@ -339,12 +360,12 @@ def _newton(x, live, iterations, first, some_rigid, rigid, inv, half, al, ga, ka
             at = live[done]
             x[at] = np.where(cycle[done], x[at], xl[done])
             act &= ~done
-            # (the brackets closed are compacted away once they are half the arrays; until
-            # then they are computed on, unread)
+            # (the brackets closed are compacted away once they are half the arrays, and the
+            # arrays longer than :data:`_SHORT_REFINE`; until then they are computed on, unread)
             n_act = int(np.count_nonzero(act))
             if not n_act:
                 return x
-            if 2 * n_act <= act.size:
+            if act.size > _SHORT_REFINE and 2 * n_act <= act.size:
                 keep = act
                 live, rigid, inv, half, al, ga, kal, c, S, C = (
                     live[keep], rigid[keep], inv[keep], half[keep], al[keep], ga[keep],
