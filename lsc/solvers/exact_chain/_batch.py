@@ -279,14 +279,16 @@ class _Batch:
         ix = w["ix"]
         x0, v0 = w["x"], w["v"]
         D0, W0 = w["D"], v0 @ self.C.T
-        S = lambda key: np.stack([s[key] for s in st], axis=1)   # noqa: E731
-        slope = S("s")
-        force = S("fa") + slope * (D0 - S("da"))
+        # (each contact's numbers the segment reads, stacked (b, K) once)
+        S = {key: np.stack([s[key] for s in st], axis=1)
+             for key in ("s", "fa", "da", "wl", "lo", "hi", "vm")}
+        slope = S["s"]
+        force = S["fa"] + slope * (D0 - S["da"])
         known = self.modes.get(ix, slope)
         motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C, known)
         self.modes.put(ix, slope, motion, ~known[2])
         omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
-        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix, omega)
+        g, armed, tol = self._event_functions(motion, S, D0, W0, x0, v0, ix, omega)
         limit = self.horizon[ix] - w["t"]
         with np.errstate(all="ignore"):
             start = start_times(g, tol, omega, limit)
@@ -310,9 +312,10 @@ class _Batch:
             # (a contact loading all along: its closing rate >= 0 up to its own zero, which
             # ends the segment; not where that rate stays on its surface, start NaN)
             rate_start = start[:, 2::3][r]
-            monotone = (S("vm")[r] != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
+            vm = S["vm"][r]
+            monotone = (vm != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
             peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone,
-                                        S("vm")[r] == 0, S("fa")[r], _bars(first, ongoing, r))
+                                        vm == 0, S["fa"][r], _bars(first, ongoing, r))
             keep[r[unsure]] = False
             F_pk = np.zeros((b, K))
             a_pk = np.zeros((b, N))
@@ -349,10 +352,11 @@ class _Batch:
         return w, st, first, keep, fresh
 
     # ------------------------------------------------------------------ pieces
-    def _event_functions(self, motion, st, D0, W0, x0, v0, ix, omega):
+    def _event_functions(self, motion, S, D0, W0, x0, v0, ix, omega):
         """The event functions ``(Sums (b, 3K), armed (b, 3K), tolerance at the start)`` in the
-        model's event order (contact ``k``: lower end, upper end, closing rate); ``omega``
-        (b,) [1/s]: the start state's rate (:meth:`._solve._Chain._earliest`'s)."""
+        model's event order (contact ``k``: lower end, upper end, closing rate); ``S``: the
+        contacts' states' numbers (b, K) by key; ``omega`` (b,) [1/s]: the start state's rate
+        (:meth:`._solve._Chain._earliest`'s)."""
         b, K = D0.shape
         P = motion.P
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
@@ -363,25 +367,17 @@ class _Batch:
         # at one instant, over and over, up to HANDOFF_EVENTS)
         tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * mmax(np.abs(v0))
                  + omega * tol_d)
-        c, alpha, gamma, armed, tol = [], [], [], [], []
-        for k, s in enumerate(st):
-            for kind in range(3):
-                if kind == 0:      # the piece's lower end reached going down: (D - da) + wl
-                    c.append((D0[:, k] - s["da"]) + s["wl"])
-                    alpha.append(dev.alpha[:, k]), gamma.append(dev.gamma[:, k])
-                    armed.append(s["lo"] > -1e299)
-                elif kind == 1:    # its upper end reached going up: hi - D
-                    c.append(s["hi"] - D0[:, k])
-                    alpha.append(-dev.alpha[:, k]), gamma.append(-dev.gamma[:, k])
-                    armed.append(s["hi"] < 1e299)
-                else:              # closing rate through zero while loading
-                    c.append(W0[:, k])
-                    alpha.append(rate.alpha[:, k]), gamma.append(rate.gamma[:, k])
-                    armed.append(s["vm"] != 0)
-                tol.append(tol_w if kind == 2 else tol_d)
-        g = Sums(np.stack(c, axis=1), np.stack(alpha, axis=1), np.stack(gamma, axis=1),
-                 motion.kappa, motion.w)
-        return g, np.stack(armed, axis=1), np.stack(tol, axis=1)
+        def three(lower, upper, rate_):     # (b, K, ...) each, to (b, 3K, ...) in that order
+            return np.stack([lower, upper, rate_], axis=2).reshape(b, 3 * K, *lower.shape[2:])
+        # each contact's: its piece's lower end reached going down, (D - da) + wl; its upper
+        # end reached going up, hi - D; its closing rate through zero while loading
+        c = three((D0 - S["da"]) + S["wl"], S["hi"] - D0, W0)
+        alpha = three(dev.alpha, -dev.alpha, rate.alpha)
+        gamma = three(dev.gamma, -dev.gamma, rate.gamma)
+        armed = three(S["lo"] > -1e299, S["hi"] < 1e299, S["vm"] != 0)
+        tol = np.repeat(np.stack([tol_d, tol_d, tol_w], axis=1)[:, None, :], K, axis=1)
+        g = Sums(c, alpha, gamma, motion.kappa, motion.w)
+        return g, armed, tol.reshape(b, 3 * K)
 
     def _peaks(self, motion, slope, force, ix, r, tau, monotone, unloads, top_force, bars):
         """Each contact's largest force and each vehicle's acceleration of largest magnitude
