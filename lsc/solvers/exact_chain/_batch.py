@@ -255,14 +255,19 @@ class _Batch:
         rec = {key: a[i:i + 1] for key, a in first.items()}
         since, v_post = w["since"][i], w["v_post"][i]
         for (t1, v1, closes, opens), (_, _, F, a) in zip(events, chain.spans()):
+            # (what leaves the record as it is skipped: no first impact ongoing, no contact
+            # opening or closing)
             ongoing = _metrics.ongoing(rec, np)
-            rec = _metrics.fold_peaks(rec, F[None], a[None], ongoing, np)
+            if ongoing.any():
+                rec = _metrics.fold_peaks(rec, F[None], a[None], ongoing, np)
             rec = _metrics.event_update(rec, np.array([t1]), v1[None], closes[None],
                                         opens[None], np)
-            if np.any(opens & ~_resolved(since, t1)):
-                return
-            since = np.where(closes, t1, np.where(opens, np.nan, since))
-            v_post = v1 if opens.any() else v_post
+            if opens.any():
+                if np.any(opens & ~_resolved(since, t1)):
+                    return
+                v_post = v1
+            if opens.any() or closes.any():
+                since = np.where(closes, t1, np.where(opens, np.nan, since))
         code[j] = DONE
         out["t"][j], out["v"][j] = t, y[N:2 * N]
         out["v_post"][j] = np.where(np.isnan(v_post), y[N:2 * N], v_post)
