@@ -9,8 +9,8 @@ Members (US units, the random chains of ``tests/test_exact_chain_batch.py``): ma
 the single solve where its vectorised search cannot decide: the count is reported, with the
 time the single solve spends on them (summed over the worker processes), and the vectorised
 path's own throughput without them; a member still running after 200 events (contacts that
-chatter) is taken on from its state by the single solve's segments once fewer than
-``HANDOFF_MEMBERS`` are left running, within that path (their count and time reported too).
+chatter) is taken on from its state by the single solve's segments, within that path (their
+count and time reported too).
 
 The sweep is run in this process (``--workers 1``) and on a process pool (``--workers 2``:
 ``lsc.sweep(..., executor=ProcessPoolExecutor(2))``, chunks of :func:`lsc.chunks.task_size`
@@ -138,8 +138,7 @@ def main() -> None:
               f"{int((res.status != 'ok').sum())}; handed to the single solve {handed} "
               f"({t_alone:.2f} s summed over the workers); vectorised path alone {done} in "
               f"~{t_vec:.2f} s: {done / t_vec:,.0f} members/s (of them taken on from the "
-              f"hand-off (past {_batch.HANDOFF_EVENTS} events, fewer than "
-              f"{_batch.HANDOFF_MEMBERS} members running): {taken[0]}, {taken[1]:.2f} s "
+              f"hand-off at {_batch.HANDOFF_EVENTS} events: {taken[0]}, {taken[1]:.2f} s "
               f"summed over the workers)"
               + ("" if same else "; NOT the same numbers as the first run"))
         # (the CPU time too, of this process or summed over the workers (their start and

@@ -8,9 +8,8 @@ included: :func:`~._batch_roots.start_times`), folds the peaks between the event
 first-impact record (:func:`~._batch_peaks.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
 contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
-Result computes them. A member past :data:`HANDOFF_EVENTS` events, once few members are left
-running, is taken on from its state by the single solve's own segments
-(:meth:`_Batch._resume`). A member the vectorised search cannot decide (a tangency, a segment longer than its windows, a law status, a
+Result computes them. A member that reaches :data:`HANDOFF_EVENTS` events is taken on from its
+state by the single solve's own segments (:meth:`_Batch._resume`). A member the vectorised search cannot decide (a tangency, a segment longer than its windows, a law status, a
 non-finite state), or that its continuation cannot finish plainly, is solved alone
 (:func:`._solve.solve`), so that its numbers and its failure message are the single solve's
 own; none is dropped.
@@ -41,21 +40,20 @@ from ._locks import LockTransitions
 from ._carry import Carried
 from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
 
-__all__ = ["solve_batch", "HANDOFF_EVENTS", "HANDOFF_MEMBERS"]
+__all__ = ["solve_batch", "HANDOFF_EVENTS"]
 
-#: A member still running after this many events (contacts that chatter: a stiff pair bouncing
-#: under a soft push, hundreds of events) is taken on from its state by the single solve's
-#: segments (:meth:`_Batch._resume`) once fewer than :data:`HANDOFF_MEMBERS` members are left
-#: running, and goes on in the batch before: a batch event costs about 3.5 ms + 9 us per
-#: member, a continued one about 0.3 ms (random 3-car chains, 50,000 members: 70 such, the
-#: longest 1,972 events; taken on at 200 events, 3.4 s of CPU; kept in the batch to the end,
-#: 1,772 rounds of a few members, as much).
+#: A member still running after this many events (contacts that chatter) is taken on from its
+#: state by the single solve's segments (:meth:`_Batch._resume`), which go on to its end or to
+#: ``max_events`` (there the single solve, solved again alone, gives its message). (Measured
+#: on random 3-car chains: a batch event with ~10 members left costs what ~10 single-solve
+#: events do, so neither a lower budget nor a higher one pays; 20,000 members: 36 taken on,
+#: 226 to 940 events each, 1.8 s of CPU against 4.7 s solved again from t = 0. A hand-off
+#: that waits until few members are left running would pay some 5 % on 50,000, but would make
+#: a member's numbers depend on the members beside it, hence on a sweep's chunks: the rule is
+#: the member's own event count.)
 HANDOFF_EVENTS = 200
-#: See :data:`HANDOFF_EVENTS`: below this many running members a batch event costs more than
-#: continuing each of them alone.
-HANDOFF_MEMBERS = 16
-#: A member still running after this many events, in the batch or taken on, is solved alone
-#: from t = 0 (a chain that chatters to ``max_events``: the single solve's own message, whose
+#: A member taken on still running after this many events is solved alone from t = 0 all the
+#: same (a chain that chatters to ``max_events``: the single solve's own message, whose
 #: 10,000 events would otherwise be made twice; random 3-car chains finish in 226 to 1,972).
 RESUME_EVENTS = 2_000
 _EPS = float(np.finfo(float).eps)
@@ -78,7 +76,7 @@ def solve_batch(model, values: dict, *, progress=None, max_events: int = 10_000)
                                "numbers (speeds, masses, weights, gaps, stiffnesses, restitution, "
                                "loading scale); solve the members one by one (lsc.sweep does)")
     n = p["m"].shape[0]
-    run = _Batch(model, p, min(max_events, RESUME_EVENTS))
+    run = _Batch(model, p, min(max_events, HANDOFF_EVENTS))
     run.values, run.max_total = values, max_events
     metrics, code = run.solve() if n else ({}, np.zeros(0, int))
     code[lock_members(model, p)] = ALONE   # (pairs that may lock: the single solve locks them)
@@ -175,8 +173,8 @@ class _Batch:
         code[status0] = ALONE
         keep = ~status0
         while True:
-            # (the members over, at the event limit or handed off dropped with those the last
-            # round left to the single solve: each working array taken once a round)
+            # (the members over or at the hand-off dropped with those the last round left to
+            # the single solve: each working array taken once a round)
             with np.errstate(invalid="ignore"):
                 over = keep & self._over(w, st)
             if over.any():
@@ -191,14 +189,10 @@ class _Batch:
                     out_first[key][j] = a[over]
             keep &= ~over
             limit = keep & (w["nev"] >= self.max_events)
-            code[w["ix"][limit]] = ALONE
+            for i in np.flatnonzero(limit) if self.max_events < self.max_total else ():
+                self._resume(i, w, st, first, code, out, out_first)
+            code[w["ix"][limit & (code[w["ix"]] != DONE)]] = ALONE
             keep &= ~limit
-            if np.count_nonzero(keep) < HANDOFF_MEMBERS and self.max_total > HANDOFF_EVENTS:
-                hand = keep & (w["nev"] >= HANDOFF_EVENTS)
-                for i in np.flatnonzero(hand):
-                    self._resume(i, w, st, first, code, out, out_first)
-                code[w["ix"][hand & (code[w["ix"]] != DONE)]] = ALONE
-                keep &= ~hand
             if not keep.all():
                 w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
                                 self._take(first, keep))
