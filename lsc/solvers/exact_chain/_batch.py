@@ -228,19 +228,18 @@ class _Batch:
         disc = model.to_python([{key: a[i] for key, a in s.items()} for s in st])
         t, y, nev = float(w["t"][i]), np.concatenate([w["x"][i], w["v"][i]]), int(w["nev"][i])
         chain.carried, parts = (y, w["D"][i].tolist()), Carried(parts, chain)
-        horizon, events = model.crash_horizon, []
+        horizon, events, touch = model.crash_horizon, [], []
         try:
             while not parts.is_over(y, disc, t, horizon):
                 go_on = nev < min(self.max_total, RESUME_EVENTS)
                 step = chain.advance(t, y, disc, horizon) if go_on else None
-                if step is None or step.event is None or not np.all(np.isfinite(step.y)):
+                if step is None or step.event is None or not np.isfinite(step.y).all():
                     return
                 t, y = step.t, np.asarray(step.y, float)
                 new = [a if a is was else model.to_python([a])[0] for a, was in
                        zip(parts.apply_event(step.event, t, y, disc, model.params), disc)]
-                touch = [[s["mode"] != MODE_OPEN for s in d[:K]] for d in (disc, new)]
-                was, now = np.array(touch)
-                events.append((t, y[N:2 * N], now & ~was, was & ~now))
+                events.append((t, y[N:2 * N]))
+                touch.append([[s["mode"] != MODE_OPEN for s in d[:K]] for d in (disc, new)])
                 disc, nev = new, nev + 1
                 if any(int(s["status"]) for s in disc[:K]):
                     return
@@ -248,19 +247,23 @@ class _Batch:
             return
         rec = {key: a[i:i + 1] for key, a in first.items()}
         since, v_post = w["since"][i], w["v_post"][i]
-        for (t1, v1, closes, opens), (_, _, F, a) in zip(events, chain.spans()):
-            # (what leaves the record as it is skipped: no first impact ongoing, no contact
-            # opening or closing)
+        # (each event's contacts that close and open, (E, K) at once; what leaves the record
+        # as it is skipped: no first impact ongoing, no contact opening or closing)
+        was, now = np.moveaxis(np.array(touch, bool).reshape(-1, 2, K), 1, 0)
+        closing, opening = now & ~was, was & ~now
+        for (t1, v1), closes, opens, shut, part, (_, _, F, a) in zip(
+                events, closing, opening, closing.any(axis=1).tolist(),
+                opening.any(axis=1).tolist(), chain.spans()):
             ongoing = _metrics.ongoing(rec, np)
             if ongoing.any():
                 rec = _metrics.fold_peaks(rec, F[None], a[None], ongoing, np)
             rec = _metrics.event_update(rec, np.array([t1]), v1[None], closes[None],
                                         opens[None], np)
-            if opens.any():
+            if part:
                 if np.any(opens & ~_resolved(since, t1)):
                     return
                 v_post = v1
-            if opens.any() or closes.any():
+            if part or shut:
                 since = np.where(closes, t1, np.where(opens, np.nan, since))
         code[j] = DONE
         out["t"][j], out["v"][j] = t, y[N:2 * N]
