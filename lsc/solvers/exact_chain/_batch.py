@@ -330,20 +330,26 @@ class _Batch:
         closes = np.zeros((b, K), bool)
         # (the law called once per contact and kind of event, that kind a Python int: the law
         # evaluates that event's transition only, not every kind's and then picks)
+        # (and once per mode and piece, those two given as numbers: the law then takes the
+        # branches of that mode and piece only, where with arrays it evaluates every branch
+        # any member may take and picks, field by field)
         for f in range(3 * K):
-            r = np.flatnonzero(keep & (which == f))
-            if not r.size:
+            at = np.flatnonzero(keep & (which == f))
+            if not at.size:
                 continue
             k, law = f // 3, self.laws[f // 3]
-            old = {key: a[r] for key, a in st[k].items()}
-            with np.errstate(all="ignore"):
-                new = law.on_event(f % 3, D[r, k], Wd[r, k], old, _subset(self.cp[k], ix[r]),
-                                   np)
-            for key, a in new.items():     # (a number the law leaves unbatched: broadcast)
-                st[k][key][r] = a
-            was, now = old["mode"] != MODE_OPEN, st[k]["mode"][r] != MODE_OPEN
-            opens[r, k], closes[r, k] = was & ~now, now & ~was
-            keep[r[st[k]["status"][r] != 0]] = False
+            mode, seg = st[k]["mode"][at], st[k]["seg"][at]
+            for r in self._alike(at, mode, seg):
+                old = {key: a[r] for key, a in st[k].items()}
+                old["mode"], old["seg"] = old["mode"][0], old["seg"][0]
+                with np.errstate(all="ignore"):
+                    new = law.on_event(f % 3, D[r, k], Wd[r, k], old,
+                                       _subset(self.cp[k], ix[r]), np)
+                for key, a in new.items():     # (a number the law leaves unbatched: broadcast)
+                    st[k][key][r] = a
+            was, now = mode != MODE_OPEN, st[k]["mode"][at] != MODE_OPEN
+            opens[at, k], closes[at, k] = was & ~now, now & ~was
+            keep[at[st[k]["status"][at] != 0]] = False
         first = _metrics.event_update(first, w["t"], v1, closes, opens, np)
         # each impact (touch to separation) must be resolved by the clock (check_resolved)
         t_now = w["t"][:, None]
@@ -473,6 +479,14 @@ class _Batch:
         ok = code == DONE
         return {k: np.where(ok.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, np.nan)
                 for k, a in res.items()}
+
+    @staticmethod
+    def _alike(at, mode, seg) -> list:
+        """The members ``at`` in groups of one mode and one piece (``mode, seg``: theirs)."""
+        if (mode == mode[0]).all() and (seg == seg[0]).all():
+            return [at]
+        pairs, group = np.unique(np.stack([mode, seg], axis=1), axis=0, return_inverse=True)
+        return [at[group.reshape(-1) == g] for g in range(len(pairs))]
 
     @staticmethod
     def _full(st: dict, n: int) -> dict:
