@@ -7,9 +7,10 @@ Each iteration every live member solves its own segment in closed form
 included: :func:`~._batch_roots.start_times`), folds the peaks between the events into its
 first-impact record (:func:`~._batch_peaks.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
-contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
+contact, in that mode and on that piece). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
 Result computes them. A member that reaches :data:`HANDOFF_EVENTS` events is taken on from its
-state by the single solve's own segments (:meth:`_Batch._resume`). A member the vectorised search cannot decide (a tangency, a segment longer than its windows, a law status, a
+state by the single solve's own segments (:meth:`_Batch._resume`). A member the vectorised
+search cannot decide (a tangency, a segment longer than its windows, a law status, a
 non-finite state), or that its continuation cannot finish plainly, is solved alone
 (:func:`._solve.solve`), so that its numbers and its failure message are the single solve's
 own; none is dropped.
