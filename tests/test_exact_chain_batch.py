@@ -492,6 +492,20 @@ def test_a_chattering_member_is_taken_on_from_the_hand_off(monkeypatch):
     assert _differing(scene, values, out) == []
 
 
+def test_a_chattering_members_numbers_do_not_depend_on_the_members_beside_it():
+    """A member taken on at the hand-off has the same numbers, bit for bit, in a batch of its
+    own and among others still running past the hand-off (a sweep's chunks, hence its
+    workers, must not change a number): the hand-off is the member's own event count, not
+    how many members are left running."""
+    scene, _ = random_chains(3, 1, 1)
+    model = HybridModel(scene)
+    one = exact_chain.solve_batch(model, {k: np.array([v]) for k, v in CHATTER.items()})
+    many_ = exact_chain.solve_batch(model, {k: np.full(40, v) for k, v in CHATTER.items()})
+    for name in METRICS:
+        assert np.array_equal(many_["metrics"][name],
+                              np.repeat(one["metrics"][name], 40, axis=0), equal_nan=True), name
+
+
 def test_a_member_taken_on_that_reaches_the_event_limit_has_the_single_solves_message(
         monkeypatch):
     alone = _handed(monkeypatch)

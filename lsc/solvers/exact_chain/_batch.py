@@ -7,7 +7,7 @@ Each iteration every live member solves its own segment in closed form
 included: :func:`~._batch_roots.start_times`), folds the peaks between the events into its
 first-impact record (:func:`~._batch_peaks.extreme_values`, :mod:`lsc.metrics`) and takes the law's
 own transition (``HysteresisLaw.on_event`` on the arrays of the members whose event is on that
-contact). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
+contact, in that mode and on that piece). The metrics are :func:`lsc.metrics.metrics` of that record, as a single solve's
 Result computes them. A member that reaches :data:`HANDOFF_EVENTS` events is taken on from its
 state by the single solve's own segments (:meth:`_Batch._resume`). A member the vectorised
 search cannot decide (a tangency, a segment longer than its windows, a law status, a
@@ -48,11 +48,14 @@ __all__ = ["solve_batch", "HANDOFF_EVENTS"]
 #: ``max_events`` (there the single solve, solved again alone, gives its message). (Measured
 #: on random 3-car chains: a batch event with ~10 members left costs what ~10 single-solve
 #: events do, so neither a lower budget nor a higher one pays; 20,000 members: 36 taken on,
-#: 226 to 940 events each, 1.8 s of CPU against 4.7 s solved again from t = 0.)
+#: 226 to 940 events each, 1.8 s of CPU against 4.7 s solved again from t = 0. A hand-off
+#: that waits until few members are left running would pay some 5 % on 50,000, but would make
+#: a member's numbers depend on the members beside it, hence on a sweep's chunks: the rule is
+#: the member's own event count.)
 HANDOFF_EVENTS = 200
 #: A member taken on still running after this many events is solved alone from t = 0 all the
 #: same (a chain that chatters to ``max_events``: the single solve's own message, whose
-#: 10,000 events would otherwise be made twice; random 3-car chains finish in 226 to 940).
+#: 10,000 events would otherwise be made twice; random 3-car chains finish in 226 to 1,972).
 RESUME_EVENTS = 2_000
 _EPS = float(np.finfo(float).eps)
 #: Member status codes of :class:`_Batch`.
@@ -171,12 +174,10 @@ class _Batch:
         code[status0] = ALONE
         keep = ~status0
         while True:
-            if not keep.all():    # (the members handed to the single solve dropped)
-                w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
-                                self._take(first, keep))
-            if not w["ix"].size:
-                break
-            over = self._over(w, st)
+            # (the members over or at the hand-off dropped with those the last round left to
+            # the single solve: each working array taken once a round)
+            with np.errstate(invalid="ignore"):
+                over = keep & self._over(w, st)
             if over.any():
                 j = w["ix"][over]
                 code[j] = DONE
@@ -187,11 +188,12 @@ class _Batch:
                     out[key][j] = np.stack([s[key][over] for s in st], axis=1)
                 for key, a in first.items():
                     out_first[key][j] = a[over]
-            alone = ~over & (w["nev"] >= self.max_events)
-            for i in np.flatnonzero(alone) if self.max_events < self.max_total else ():
+            keep &= ~over
+            limit = keep & (w["nev"] >= self.max_events)
+            for i in np.flatnonzero(limit) if self.max_events < self.max_total else ():
                 self._resume(i, w, st, first, code, out, out_first)
-            code[w["ix"][alone & (code[w["ix"]] != DONE)]] = ALONE
-            keep = ~over & ~alone
+            code[w["ix"][limit & (code[w["ix"]] != DONE)]] = ALONE
+            keep &= ~limit
             if not keep.all():
                 w, st, first = (self._take(w, keep), [self._take(s, keep) for s in st],
                                 self._take(first, keep))
@@ -227,19 +229,18 @@ class _Batch:
         disc = model.to_python([{key: a[i] for key, a in s.items()} for s in st])
         t, y, nev = float(w["t"][i]), np.concatenate([w["x"][i], w["v"][i]]), int(w["nev"][i])
         chain.carried, parts = (y, w["D"][i].tolist()), Carried(parts, chain)
-        horizon, events = model.crash_horizon, []
+        horizon, events, touch = model.crash_horizon, [], []
         try:
             while not parts.is_over(y, disc, t, horizon):
                 go_on = nev < min(self.max_total, RESUME_EVENTS)
                 step = chain.advance(t, y, disc, horizon) if go_on else None
-                if step is None or step.event is None or not np.all(np.isfinite(step.y)):
+                if step is None or step.event is None or not np.isfinite(step.y).all():
                     return
                 t, y = step.t, np.asarray(step.y, float)
                 new = [a if a is was else model.to_python([a])[0] for a, was in
                        zip(parts.apply_event(step.event, t, y, disc, model.params), disc)]
-                touch = [[s["mode"] != MODE_OPEN for s in d[:K]] for d in (disc, new)]
-                was, now = np.array(touch)
-                events.append((t, y[N:2 * N], now & ~was, was & ~now))
+                events.append((t, y[N:2 * N]))
+                touch.append([[s["mode"] != MODE_OPEN for s in d[:K]] for d in (disc, new)])
                 disc, nev = new, nev + 1
                 if any(int(s["status"]) for s in disc[:K]):
                     return
@@ -247,15 +248,24 @@ class _Batch:
             return
         rec = {key: a[i:i + 1] for key, a in first.items()}
         since, v_post = w["since"][i], w["v_post"][i]
-        for (t1, v1, closes, opens), (_, _, F, a) in zip(events, chain.spans()):
+        # (each event's contacts that close and open, (E, K) at once; what leaves the record
+        # as it is skipped: no first impact ongoing, no contact opening or closing)
+        was, now = np.moveaxis(np.array(touch, bool).reshape(-1, 2, K), 1, 0)
+        closing, opening = now & ~was, was & ~now
+        for (t1, v1), closes, opens, shut, part, (_, _, F, a) in zip(
+                events, closing, opening, closing.any(axis=1).tolist(),
+                opening.any(axis=1).tolist(), chain.spans()):
             ongoing = _metrics.ongoing(rec, np)
-            rec = _metrics.fold_peaks(rec, F[None], a[None], ongoing, np)
+            if ongoing.any():
+                rec = _metrics.fold_peaks(rec, F[None], a[None], ongoing, np)
             rec = _metrics.event_update(rec, np.array([t1]), v1[None], closes[None],
                                         opens[None], np)
-            if np.any(opens & ~_resolved(since, t1)):
-                return
-            since = np.where(closes, t1, np.where(opens, np.nan, since))
-            v_post = v1 if opens.any() else v_post
+            if part:
+                if np.any(opens & ~_resolved(since, t1)):
+                    return
+                v_post = v1
+            if part or shut:
+                since = np.where(closes, t1, np.where(opens, np.nan, since))
         code[j] = DONE
         out["t"][j], out["v"][j] = t, y[N:2 * N]
         out["v_post"][j] = np.where(np.isnan(v_post), y[N:2 * N], v_post)
@@ -272,14 +282,16 @@ class _Batch:
         ix = w["ix"]
         x0, v0 = w["x"], w["v"]
         D0, W0 = w["D"], v0 @ self.C.T
-        S = lambda key: np.stack([s[key] for s in st], axis=1)   # noqa: E731
-        slope = S("s")
-        force = S("fa") + slope * (D0 - S("da"))
+        # (each contact's numbers the segment reads, stacked (b, K) once)
+        S = {key: np.stack([s[key] for s in st], axis=1)
+             for key in ("s", "fa", "da", "wl", "lo", "hi", "vm")}
+        slope = S["s"]
+        force = S["fa"] + slope * (D0 - S["da"])
         known = self.modes.get(ix, slope)
         motion = BatchMotion(self.m[ix], x0, v0, slope, force, self.C, known)
         self.modes.put(ix, slope, motion, ~known[2])
         omega = np.maximum(motion.fastest, 1.0 / self.t_scale[ix])
-        g, armed, tol = self._event_functions(motion, st, D0, W0, x0, v0, ix, omega)
+        g, armed, tol = self._event_functions(motion, S, D0, W0, x0, v0, ix, omega)
         limit = self.horizon[ix] - w["t"]
         with np.errstate(all="ignore"):
             start = start_times(g, tol, omega, limit)
@@ -303,9 +315,10 @@ class _Batch:
             # (a contact loading all along: its closing rate >= 0 up to its own zero, which
             # ends the segment; not where that rate stays on its surface, start NaN)
             rate_start = start[:, 2::3][r]
-            monotone = (S("vm")[r] != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
+            vm = S["vm"][r]
+            monotone = (vm != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
             peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone,
-                                        S("vm")[r] == 0, S("fa")[r], _bars(first, ongoing, r))
+                                        vm == 0, S["fa"][r], _bars(first, ongoing, r))
             keep[r[unsure]] = False
             F_pk = np.zeros((b, K))
             a_pk = np.zeros((b, N))
@@ -318,20 +331,26 @@ class _Batch:
         closes = np.zeros((b, K), bool)
         # (the law called once per contact and kind of event, that kind a Python int: the law
         # evaluates that event's transition only, not every kind's and then picks)
+        # (and once per mode and piece, those two given as numbers: the law then takes the
+        # branches of that mode and piece only, where with arrays it evaluates every branch
+        # any member may take and picks, field by field)
         for f in range(3 * K):
-            r = np.flatnonzero(keep & (which == f))
-            if not r.size:
+            at = np.flatnonzero(keep & (which == f))
+            if not at.size:
                 continue
             k, law = f // 3, self.laws[f // 3]
-            old = {key: a[r] for key, a in st[k].items()}
-            with np.errstate(all="ignore"):
-                new = self._full(law.on_event(f % 3, D[r, k], Wd[r, k], old,
-                                              _subset(self.cp[k], ix[r]), np), r.size)
-            for key, a in new.items():
-                st[k][key][r] = a
-            opens[r, k] = (new["mode"] == MODE_OPEN) & (old["mode"] != MODE_OPEN)
-            closes[r, k] = (new["mode"] != MODE_OPEN) & (old["mode"] == MODE_OPEN)
-            keep[r[new["status"] != 0]] = False
+            mode, seg = st[k]["mode"][at], st[k]["seg"][at]
+            for r in self._alike(at, mode, seg):
+                old = {key: a[r] for key, a in st[k].items()}
+                old["mode"], old["seg"] = old["mode"][0], old["seg"][0]
+                with np.errstate(all="ignore"):
+                    new = law.on_event(f % 3, D[r, k], Wd[r, k], old,
+                                       _subset(self.cp[k], ix[r]), np)
+                for key, a in new.items():     # (a number the law leaves unbatched: broadcast)
+                    st[k][key][r] = a
+            was, now = mode != MODE_OPEN, st[k]["mode"][at] != MODE_OPEN
+            opens[at, k], closes[at, k] = was & ~now, now & ~was
+            keep[at[st[k]["status"][at] != 0]] = False
         first = _metrics.event_update(first, w["t"], v1, closes, opens, np)
         # each impact (touch to separation) must be resolved by the clock (check_resolved)
         t_now = w["t"][:, None]
@@ -342,10 +361,11 @@ class _Batch:
         return w, st, first, keep, fresh
 
     # ------------------------------------------------------------------ pieces
-    def _event_functions(self, motion, st, D0, W0, x0, v0, ix, omega):
+    def _event_functions(self, motion, S, D0, W0, x0, v0, ix, omega):
         """The event functions ``(Sums (b, 3K), armed (b, 3K), tolerance at the start)`` in the
-        model's event order (contact ``k``: lower end, upper end, closing rate); ``omega``
-        (b,) [1/s]: the start state's rate (:meth:`._solve._Chain._earliest`'s)."""
+        model's event order (contact ``k``: lower end, upper end, closing rate); ``S``: the
+        contacts' states' numbers (b, K) by key; ``omega`` (b,) [1/s]: the start state's rate
+        (:meth:`._solve._Chain._earliest`'s)."""
         b, K = D0.shape
         P = motion.P
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
@@ -356,25 +376,17 @@ class _Batch:
         # at one instant, over and over, up to HANDOFF_EVENTS)
         tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * mmax(np.abs(v0))
                  + omega * tol_d)
-        c, alpha, gamma, armed, tol = [], [], [], [], []
-        for k, s in enumerate(st):
-            for kind in range(3):
-                if kind == 0:      # the piece's lower end reached going down: (D - da) + wl
-                    c.append((D0[:, k] - s["da"]) + s["wl"])
-                    alpha.append(dev.alpha[:, k]), gamma.append(dev.gamma[:, k])
-                    armed.append(s["lo"] > -1e299)
-                elif kind == 1:    # its upper end reached going up: hi - D
-                    c.append(s["hi"] - D0[:, k])
-                    alpha.append(-dev.alpha[:, k]), gamma.append(-dev.gamma[:, k])
-                    armed.append(s["hi"] < 1e299)
-                else:              # closing rate through zero while loading
-                    c.append(W0[:, k])
-                    alpha.append(rate.alpha[:, k]), gamma.append(rate.gamma[:, k])
-                    armed.append(s["vm"] != 0)
-                tol.append(tol_w if kind == 2 else tol_d)
-        g = Sums(np.stack(c, axis=1), np.stack(alpha, axis=1), np.stack(gamma, axis=1),
-                 motion.kappa, motion.w)
-        return g, np.stack(armed, axis=1), np.stack(tol, axis=1)
+        def three(lower, upper, rate_):     # (b, K, ...) each, to (b, 3K, ...) in that order
+            return np.stack([lower, upper, rate_], axis=2).reshape(b, 3 * K, *lower.shape[2:])
+        # each contact's: its piece's lower end reached going down, (D - da) + wl; its upper
+        # end reached going up, hi - D; its closing rate through zero while loading
+        c = three((D0 - S["da"]) + S["wl"], S["hi"] - D0, W0)
+        alpha = three(dev.alpha, -dev.alpha, rate.alpha)
+        gamma = three(dev.gamma, -dev.gamma, rate.gamma)
+        armed = three(S["lo"] > -1e299, S["hi"] < 1e299, S["vm"] != 0)
+        tol = np.repeat(np.stack([tol_d, tol_d, tol_w], axis=1)[:, None, :], K, axis=1)
+        g = Sums(c, alpha, gamma, motion.kappa, motion.w)
+        return g, armed, tol.reshape(b, 3 * K)
 
     def _peaks(self, motion, slope, force, ix, r, tau, monotone, unloads, top_force, bars):
         """Each contact's largest force and each vehicle's acceleration of largest magnitude
@@ -468,6 +480,14 @@ class _Batch:
         ok = code == DONE
         return {k: np.where(ok.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, np.nan)
                 for k, a in res.items()}
+
+    @staticmethod
+    def _alike(at, mode, seg) -> list:
+        """The members ``at`` in groups of one mode and one piece (``mode, seg``: theirs)."""
+        if (mode == mode[0]).all() and (seg == seg[0]).all():
+            return [at]
+        pairs, group = np.unique(np.stack([mode, seg], axis=1), axis=0, return_inverse=True)
+        return [at[group.reshape(-1) == g] for g in range(len(pairs))]
 
     @staticmethod
     def _full(st: dict, n: int) -> dict:
