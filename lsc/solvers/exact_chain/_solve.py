@@ -420,22 +420,48 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     coef = g._modal()   # (kind, ω, α, γ, κ) of each mode, on floats
     _, w, alpha, gamma, _ = zip(*coef) if coef else ((),) * 5
     fastest = fastest_entering(alpha, gamma, w)
+    low = []   # (the derivatives below the first clear one: rounding)
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
         if abs(dp) > start_rounding(tol, omega, fastest, p, size):
             break
+        low.append(dp)
     else:
         return None
     if dp < 0:
         return 0.0
-    # g(τ) >= d_p τ^p / p! - B τ^(p+1) / (p+1)!, B >= |g^(p+1)|: positive up to (p+1) d_p / B
+    # g(τ) >= d_p τ^p / p! - B τ^(p+1) / (p+1)!, B >= |g^(p+1)| (:func:`taylor_lower`):
+    # positive up to (p+1) d_p / B
     lower = g
     for _ in range(p - 1):
         lower = lower.derivative()
     T = taylor_span(limit, fastest, omega)
     B = lower.curvature_bound(T)
     clear = (p + 1) * dp / B if B > 0 else T
-    return min(0.5 * clear, T)
+    # the search starts where that clears what the computed g has beside it (else its sign
+    # there would be theirs: a false crossing where g, proved positive, is below its rounding)
+    for tau in (min(0.5 * clear, T), min(p / (p + 1) * clear, T)):
+        S, C = g.modes.basis_at(tau)
+        size = sum(abs(a * s) + abs(c * x) for s, x, (_, _, a, c, _) in zip(S, C, coef))
+        if taylor_lower(dp, B, p, tau) > start_noise(g.c, low, tau, size):
+            return tau
+    return min(clear, T)
+
+
+def taylor_lower(dp, B, p: int, tau):
+    """A lower bound at ``tau`` [s] on a function whose first ``p - 1`` derivatives at 0 vanish,
+    its ``p``-th is ``dp`` and ``B`` bounds its ``(p+1)``-th: ``dp τ^p/p! - B τ^(p+1)/(p+1)!``.
+    Floats, or arrays (the batch's)."""
+    return dp * tau ** p / math.factorial(p) - B * tau ** (p + 1) / math.factorial(p + 1)
+
+
+def start_noise(c, low, tau, size):
+    """How far rounding can put a function's computed value at ``tau`` [s] from
+    :func:`taylor_lower`'s, whose value and first derivatives at 0 vanish where the computed
+    ones, ``c`` and ``low``, are rounding: those carried to ``tau`` by their Taylor terms, and
+    a few ulps of the sum's terms (``size``: their magnitudes summed). Floats, or arrays."""
+    carried = sum((abs(d) * tau ** q / math.factorial(q) for q, d in enumerate(low, 1)), abs(c))
+    return carried + 16 * _EPS * (size + abs(c))
 
 
 def fastest_entering(alpha, gamma, w):
