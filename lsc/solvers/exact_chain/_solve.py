@@ -24,6 +24,7 @@ from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _lines, _locks
 from ._brakes import Brakes
 from ._locks import LockTransitions
+from ._balance import check_balance
 from ._carry import Carried, deformations, event_rows, frame
 from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
@@ -76,7 +77,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                           y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
     if len(chain.records) == len(segments):   # (the series from the deformations carried)
         result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
-    return result
+    return result if model.brakes else check_balance(result) or result
 
 
 def _transitions(model):
@@ -457,9 +458,8 @@ def taylor_lower(dp, B, p: int, tau):
 
 def start_noise(c, low, tau, size):
     """How far rounding can put a function's computed value at ``tau`` [s] from
-    :func:`taylor_lower`'s, whose value and first derivatives at 0 vanish where the computed
-    ones, ``c`` and ``low``, are rounding: those carried to ``tau`` by their Taylor terms, and
-    a few ulps of the sum's terms (``size``: their magnitudes summed). Floats, or arrays."""
+    :func:`taylor_lower`'s: its value and first derivatives at 0, ``c`` and ``low`` (rounding),
+    carried to ``tau``, and a few ulps of the sum's terms (``size``, their magnitudes summed)."""
     carried = sum((abs(d) * tau ** q / math.factorial(q) for q, d in enumerate(low, 1)), abs(c))
     return carried + 16 * _EPS * (size + abs(c))
 
