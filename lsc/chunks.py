@@ -72,17 +72,26 @@ class Task:
 
 
 def solve_task(task: Task, progress=None) -> dict:
-    """``{"metrics": name → array (m, ...), "status": (m,) object array}`` of one chunk: each
-    member validated, then solved (``"ok"``) or given its error message (and NaN metrics).
+    """``{"metrics": name → array (m, ...), "status": (m,) object array, "warnings": (m,)
+    object array}`` of one chunk: each member validated, then solved (``"ok"``) or given its
+    error message (and NaN metrics), with its ``Result.warnings`` (a tuple, empty where none).
     ``progress(k)``: optional, advanced by ``k`` members as they finish."""
     n = len(task)
     status = validate(task.scene, task.values, n)
     metrics = empty_metrics(task.scene, n, task.metrics)
+    warnings = no_warnings(n)
     if task.batch:
-        _batch(task, status, metrics, progress)
+        _batch(task, status, metrics, warnings, progress)
     else:
-        _loop(task, status, metrics, progress)
-    return {"metrics": metrics, "status": status}
+        _loop(task, status, metrics, warnings, progress)
+    return {"metrics": metrics, "status": status, "warnings": warnings}
+
+
+def no_warnings(n: int) -> np.ndarray:
+    """(n,) object array of empty tuples: no member has a warning."""
+    out = np.empty(n, dtype=object)
+    out[:] = [()] * n
+    return out
 
 
 # --------------------------------------------------------------------------- validation
@@ -251,9 +260,9 @@ def empty_metrics(scene: Scene, n: int, names=None) -> dict:
 
 
 # --------------------------------------------------------------------------- solving a chunk
-def _batch(task: Task, status, metrics, progress) -> None:
-    """The valid members at once through the backend's ``solve_batch``: their metrics, and
-    their status (``"ok"`` or the single solve's message)."""
+def _batch(task: Task, status, metrics, warnings, progress) -> None:
+    """The valid members at once through the backend's ``solve_batch``: their metrics, their
+    status (``"ok"`` or the single solve's message) and warnings."""
     run = np.flatnonzero(status == "ok")
     if run.size == 0:
         return
@@ -263,11 +272,12 @@ def _batch(task: Task, status, metrics, progress) -> None:
     for name in metrics:
         metrics[name][run] = out["metrics"][name]
     status[run] = out["status"]
+    warnings[run] = out["warnings"]
 
 
-def _loop(task: Task, status, metrics, progress) -> None:
+def _loop(task: Task, status, metrics, warnings, progress) -> None:
     """Members one by one, as ``lsc.solve`` would do each (re-validated by the loader, with the
-    member's own solver settings): its metrics, or its error in ``status``."""
+    member's own solver settings): its metrics and warnings, or its error in ``status``."""
     from .api import resolve
 
     for j in range(status.size):
@@ -282,6 +292,7 @@ def _loop(task: Task, status, metrics, progress) -> None:
             else:
                 for name in metrics:
                     metrics[name][j] = getattr(r, name)
+                warnings[j] = r.warnings
         if progress is not None:
             progress(1)
 

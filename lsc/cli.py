@@ -212,7 +212,7 @@ def _cmd_sweep(args) -> int:
     written = write_files(writers, overwrite=args.overwrite, replaces=files)
     n, bad = s.stats["members"], s.stats["failed"]
     print(f"{s.scene.name}: {n} members by {s.method} in {s.stats['wall_time']:.3g} s"
-          + (f", {bad} failed (see the status column)" if bad else ""))
+          + (f", {bad} failed (see the status column)" if bad else "") + _warned(s.stats))
     print(f"written to {folder(args.out)}: " + ", ".join(p.name for p in written))
     return 0
 
@@ -228,9 +228,15 @@ def _stream_sweep(args, scene, params, opts) -> int:
                   out=args.out, overwrite=args.overwrite, **opts)
     n, bad = f.stats["members"], f.stats["failed"]
     print(f"{f.scene.name}: {n} members by {f.method} in {f.stats['wall_time']:.3g} s"
-          + (f", {bad} failed (see the status column)" if bad else ""))
+          + (f", {bad} failed (see the status column)" if bad else "") + _warned(f.stats))
     print(f"written to {args.out}")
     return 0
+
+
+def _warned(stats: dict) -> str:
+    """The summary's note of the members whose solve came with warnings ("" where none)."""
+    k = stats.get("warned", 0)
+    return f", {k} with warnings (see the warnings column)" if k else ""
 
 
 # --------------------------------------------------------------------------- lsc scenes

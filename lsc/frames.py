@@ -23,6 +23,7 @@ import numpy as np
 
 from .errors import SceneError
 from .result import METRICS
+from .sweep import warning_text
 
 __all__ = ["result_frame", "summary_frame", "sweep_frame", "sweep_xarray", "vehicle_labels",
            "contact_labels"]
@@ -159,6 +160,7 @@ def sweep_frame(sweep_result):
         if name in s.metrics:  # (a study may keep only some metrics)
             columns.update(_item_columns(name, s.metrics[name], per, s.scene, s.units[name]))
     columns["status"] = (np.asarray(s.status, dtype=str), None)
+    columns["warnings"] = (np.asarray(warning_text(s.warnings), dtype=str), None)
     df = _frame(columns, pd.RangeIndex(len(s.status), name="member"), _attrs(s.scene, s.method))
     df.attrs["paths"] = paths
     df.attrs["shape"] = list(s.shape)
@@ -219,4 +221,5 @@ def sweep_xarray(sweep_result):
         extra = [] if per == "scene" else [per]
         data[name] = (dims + extra, arr.reshape(shape + arr.shape[1:]), {"units": s.units[name]})
     data["status"] = (dims, np.asarray(s.status, dtype=str).reshape(shape))
+    data["warnings"] = (dims, np.asarray(warning_text(s.warnings), dtype=str).reshape(shape))
     return xr.Dataset(data, coords=coords, attrs=_attrs(s.scene, s.method))

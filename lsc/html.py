@@ -97,7 +97,8 @@ def _range_row(label: str, values: np.ndarray) -> list[str]:
 
 def sweep_html(sweep_result) -> str:
     """The summary of a :class:`lsc.SweepResult` as an HTML fragment: members, the swept
-    paths' ranges, each metric's range over the solved members, the failures."""
+    paths' ranges, each metric's range over the solved members, the failures and the members
+    with warnings."""
     sw = sweep_result
     s, n = sw.scene, len(sw.status)
     ok = np.asarray(sw.ok)
@@ -121,12 +122,15 @@ def sweep_html(sweep_result) -> str:
     parts.append(_table("metrics over the solved members", ["metric", "min", "max", "unit"],
                         rows))
     failed = [(j, msg) for j, msg in enumerate(sw.status) if msg != "ok"]
-    if failed:
-        items = "".join(f"<li>member {j}: {escape(str(msg))}</li>"
-                        for j, msg in failed[:MAX_FAILURES_SHOWN])
-        more = len(failed) - MAX_FAILURES_SHOWN
-        tail = f"<p>… and {more} more (see status)</p>" if more > 0 else ""
-        parts.append(f"<p><b>failed members</b></p><ul>{items}</ul>{tail}")
+    warned = [(j, "; ".join(w)) for j, w in enumerate(sw.warnings) if w]
+    for what, column, listed in (("failed members", "status", failed),
+                                 ("members with warnings", "warnings", warned)):
+        if listed:
+            items = "".join(f"<li>member {j}: {escape(str(msg))}</li>"
+                            for j, msg in listed[:MAX_FAILURES_SHOWN])
+            more = len(listed) - MAX_FAILURES_SHOWN
+            tail = f"<p>… and {more} more (see {column})</p>" if more > 0 else ""
+            parts.append(f"<p><b>{what}</b></p><ul>{items}</ul>{tail}")
     return _wrap(parts)
 
 

@@ -45,7 +45,7 @@ class ParquetSink:
     def __init__(self, file, scene: Scene, method: str, shape: tuple):
         self.file, self.scene, self.method, self.shape = Path(file), scene, method, tuple(shape)
         self.writer = self.schema = None
-        self.members = 0
+        self.members = self.warned = 0
         self.reasons: Counter = Counter()
 
     def __call__(self, start: int, task, result: dict) -> None:
@@ -59,6 +59,7 @@ class ParquetSink:
         self.writer.write_table(pa.Table.from_batches(table.to_batches(), self.schema),
                                 row_group_size=max(1, table.num_rows))
         self.members += table.num_rows
+        self.warned += sum(1 for w in result["warnings"] if w)
         self._count(result["status"])
 
     def _table(self, start: int, task, result: dict):
@@ -69,7 +70,7 @@ class ParquetSink:
 
         m = len(task)
         chunk = SweepResult(self.scene, task.values, result["metrics"], result["status"],
-                            self.method, (m,))
+                            self.method, (m,), warnings=result["warnings"])
         df = sweep_frame(chunk)
         df.attrs["shape"] = list(self.shape)
         df.index = pd.RangeIndex(start, start + m, name="member")
@@ -153,6 +154,14 @@ class SweepFile:
     @property
     def status(self) -> np.ndarray:
         return self.column("status").astype(object)
+
+    @property
+    def warnings(self) -> np.ndarray:
+        """Each member's warnings, a tuple (empty where none), as :class:`lsc.SweepResult`'s."""
+        texts = self.column("warnings")
+        out = np.empty(len(texts), dtype=object)
+        out[:] = [tuple(text.split("\n")) if text else () for text in texts]
+        return out
 
     @property
     def ok(self) -> np.ndarray:

@@ -75,7 +75,10 @@ class SweepResult:
     ``params``: swept path → values (n,) [scene units]. ``metrics``: name → array, (n,) per scene,
     (n, N) per vehicle, (n, K) per contact (also reachable as attributes: ``s.delta_v``).
     ``status``: ``"ok"`` or the member's error message. ``shape``: the grid shape (``(n,)`` for
-    a plain sweep). ``method``: the backend used. ``stats``: wall time [s], members, failures.
+    a plain sweep). ``method``: the backend used. ``stats``: wall time [s], members, failures,
+    members with warnings. ``warnings``: each member's ``Result.warnings`` (a tuple of
+    strings, empty where none: what its numbers owe to rounding or to a model beside the plain
+    law), whatever path solved it.
     """
 
     scene: Scene
@@ -85,6 +88,12 @@ class SweepResult:
     method: str
     shape: tuple
     stats: dict = field(default_factory=dict)
+    warnings: np.ndarray = None
+
+    def __post_init__(self):
+        if self.warnings is None:
+            from .chunks import no_warnings
+            self.warnings = no_warnings(len(self.status))
 
     def __getattr__(self, name):
         metrics = self.__dict__.get("metrics", {})
@@ -103,8 +112,9 @@ class SweepResult:
         return {name: self.scene.unit(kind) for name, (kind, _) in METRICS.items()}
 
     def columns(self, metrics=None) -> dict[str, np.ndarray]:
-        """Flat named columns (params, then metrics per vehicle/contact, then status) for CSV;
-        ``metrics`` selects some metrics (default: all)."""
+        """Flat named columns (params, then metrics per vehicle/contact, then status and
+        warnings, each member's joined by newlines) for CSV; ``metrics`` selects some metrics
+        (default: all)."""
         cols = {}
         for path, vals in self.params.items():
             cols[path] = vals
@@ -124,6 +134,7 @@ class SweepResult:
             else:
                 cols[f"{name}{suffix}"] = arr
         cols["status"] = self.status
+        cols["warnings"] = warning_text(self.warnings)
         return cols
 
     def to_dataframe(self):
@@ -152,15 +163,24 @@ class SweepResult:
 
         cols = self.columns(metrics)
         keys = list(cols)
-        status = cols.pop("status")
+        status, notes = cols.pop("status"), cols.pop("warnings")
         table = np.column_stack([np.asarray(c, float) for c in cols.values()]).tolist()
-        fmt = ",".join(["%r"] * len(cols)) + ",%s\n"
+        fmt = ",".join(["%r"] * len(cols)) + ",%s,%s\n"
 
         def write(file):
             with open(file, "w", newline="") as fh:
                 csv.writer(fh, quoting=csv.QUOTE_MINIMAL).writerow(keys)
-                fh.writelines(fmt % (*row, _csv_text(st)) for row, st in zip(table, status))
+                fh.writelines(fmt % (*row, _csv_text(st), _csv_text(w))
+                              for row, st, w in zip(table, status, notes))
         return write_file(path, write, overwrite=overwrite)
+
+
+def warning_text(warnings) -> np.ndarray:
+    """(n,) object array of str: each member's warnings joined by newlines ("" where none), as
+    CSV, DataFrames and Parquet files hold them."""
+    out = np.empty(len(warnings), dtype=object)
+    out[:] = ["\n".join(w) for w in warnings]
+    return out
 
 
 def _csv_text(text: str) -> str:
@@ -391,10 +411,12 @@ def study(base: Scene, members, shape: tuple, *, method, options: dict, controls
     stats = {"wall_time": time.perf_counter() - start, "members": n}
     if out is None:
         stats["failed"] = int(np.sum(sink.status != "ok"))
+        stats["warned"] = sum(1 for w in sink.warnings if w)
         return SweepResult(base, members.chunk(0, n), sink.metrics, sink.status, name,
-                           tuple(shape), stats)
+                           tuple(shape), stats, sink.warnings)
     from .parquet import SweepFile
     stats["failed"] = sum(sink.reasons.values())
+    stats["warned"] = sink.warned
     return SweepFile(Path(out), base, tuple(members.chunk(0, 1)), names, name, tuple(shape),
                      stats, dict(sink.reasons))
 
@@ -414,16 +436,18 @@ class _Memory:
     """The consumer of :func:`lsc.chunks.run_tasks` that fills whole arrays (n members)."""
 
     def __init__(self, scene: Scene, n: int, names: tuple):
-        from .chunks import empty_metrics
+        from .chunks import empty_metrics, no_warnings
 
         self.metrics = empty_metrics(scene, n, names)
         self.status = np.full(n, "ok", dtype=object)
+        self.warnings = no_warnings(n)
 
     def __call__(self, start: int, task, result: dict) -> None:
         stop = start + len(task)
         for name, arr in result["metrics"].items():
             self.metrics[name][start:stop] = arr
         self.status[start:stop] = result["status"]
+        self.warnings[start:stop] = result["warnings"]
 
 
 def _write_parquet(out, overwrite, tasks, base, name, shape, executor, bar):

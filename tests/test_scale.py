@@ -91,7 +91,7 @@ def test_metrics_keeps_only_those_named():
                   metrics=["duration", "delta_v"])
     assert set(s.metrics) == {"delta_v", "duration"}
     assert [c for c in s.columns() if not c.startswith(SPEED)] == [
-        "delta_v[bullet] (ft/s)", "delta_v[target] (ft/s)", "duration (s)", "status"]
+        "delta_v[bullet] (ft/s)", "delta_v[target] (ft/s)", "duration (s)", "status", "warnings"]
 
 
 def test_bad_study_settings_are_refused_by_name():

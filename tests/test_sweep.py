@@ -90,7 +90,8 @@ def test_sweep_csv(tmp_path):
     s.to_csv(f)
     text = f.read_text().splitlines()
     assert text[0].startswith("vehicles.0.speed,delta_v[bullet] (ft/s)")
-    assert len(text) == 3 and text[1].endswith(",ok")
+    assert text[0].endswith(",status,warnings")
+    assert len(text) == 3 and text[1].endswith(",ok,")   # (no warning)
 
 
 def test_sweep_over_solver_settings_uses_each_members_own():

@@ -99,6 +99,12 @@ class MonteCarlo(SummaryHTML):
             lines.append("failed members:")
             for r, c in self._failures()[:5]:
                 lines.append(f"  {c} x {r}")
+        warned = int(self.sweep.stats.get("warned", 0))
+        if warned:
+            j, first = next((j, w) for j, w in enumerate(self.sweep.warnings) if w)
+            lines += ["", f"{warned} members with warnings (their own solves', in "
+                      f"sweep.warnings and the warnings column), the first: member {j}: "
+                      f"{first[0]}"]
         return "\n".join(lines)
 
     def _failures(self) -> list:

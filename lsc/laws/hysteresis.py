@@ -28,6 +28,13 @@ def _lazy(cond, a, b, xp) -> dict:
     if cond is True or cond is False or (isinstance(cond, (np.bool_, np.ndarray))
             and np.ndim(cond) == 0 and not getattr(xp, "__name__", "").startswith("jax")):
         return dict(a() if cond else b())
+    if xp is np and isinstance(cond, np.ndarray):
+        # (a batch on NumPy whose members all take one branch: the other is not evaluated;
+        # each field as select gives it, a new array over the members (a state's fields keep
+        # their type whatever the branch))
+        every = bool(cond.all())
+        if every or not cond.any():
+            return {k: np.where(cond, v, v) for k, v in (a() if every else b()).items()}
     return _sel(cond, a(), b(), xp)
 
 __all__ = ["HysteresisLaw", "Hysteresis", "Restitution", "UnloadingStiffness", "UnloadingTable"]

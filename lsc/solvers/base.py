@@ -15,6 +15,7 @@ A scene that uses a feature a backend does not declare is refused by it with a
 
 from __future__ import annotations
 
+import contextvars
 import difflib
 import importlib
 import importlib.util
@@ -29,6 +30,10 @@ __all__ = ["Option", "OPTIONS", "CONTROLS", "MAX_SAMPLES", "Backend", "check_opt
 
 #: Most points in a Result's sampled series (``n_samples``): a million rows of every series.
 MAX_SAMPLES = 1_000_000
+#: The warnings of the members a batch path hands to its single solve (:func:`solve_alone`),
+#: member index → ``Result.warnings``, gathered for :meth:`Backend.solve_batch` (``None``
+#: outside one).
+_ALONE_WARNINGS = contextvars.ContextVar("lsc_alone_warnings", default=None)
 
 
 @dataclass(frozen=True)
@@ -259,10 +264,25 @@ class Backend:
         array, leading axis n, :data:`lsc.result.METRICS`) and ``status`` ((n,) object array:
         ``"ok"`` or ``"SimulationError: ..."``, the message a single solve raises).
         ``progress``: optional callable ``progress(k)``, advanced by ``k`` members as they
-        finish."""
+        finish. Also ``warnings`` ((n,) object array of tuples): each member's
+        ``Result.warnings``, those of the members the backend solves alone
+        (:func:`solve_alone`) and, for the others, what the metrics say
+        (:func:`lsc.laws.damping_tails.member_tails`)."""
+        from ..laws.damping_tails import member_tails
+
         self.check(model, batch=True)
         self.check_options(options, batch=True)
-        return self.implementation().solve_batch(model, values, progress=progress, **options)
+        alone = {}
+        token = _ALONE_WARNINGS.set(alone)
+        try:
+            out = self.implementation().solve_batch(model, values, progress=progress, **options)
+        finally:
+            _ALONE_WARNINGS.reset(token)
+        met = out["metrics"]
+        tails = member_tails(model.scene, met["max_deformation"], met["permanent_deformation"])
+        warnings = np.empty(len(tails), dtype=object)
+        warnings[:] = [alone.get(j, tail) for j, tail in enumerate(tails)]
+        return {**out, "warnings": warnings}
 
 
 def solve_alone(solve, model, values: dict, members, metrics: dict, status, *, progress=None,
@@ -271,10 +291,12 @@ def solve_alone(solve, model, values: dict, members, metrics: dict, status, *, p
     ``solve(model, n_samples=2, **options)``, as :func:`lsc.solve` would solve them: each one's
     metrics written into ``metrics`` (arrays with the member axis first) and ``"ok"`` into
     ``status``, or NaN metrics and ``"SimulationError: <the single solve's message>"``;
-    ``progress(1)`` after each."""
+    ``progress(1)`` after each. Its ``Result.warnings`` are kept for
+    :meth:`Backend.solve_batch`."""
     from ..errors import SimulationError
     from ..model import HybridModel
 
+    gathered = _ALONE_WARNINGS.get()
     for j in members:
         member = {path: float(v[j]) for path, v in values.items()}
         try:
@@ -287,5 +309,7 @@ def solve_alone(solve, model, values: dict, members, metrics: dict, status, *, p
             for name, arr in metrics.items():
                 arr[j] = getattr(r, name)
             status[j] = "ok"
+            if gathered is not None:
+                gathered[int(j)] = r.warnings
         if progress is not None:
             progress(1)

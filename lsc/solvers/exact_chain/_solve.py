@@ -24,6 +24,7 @@ from ...locking import FEATURE as LOCK, lock_warnings, locking_model, pressed
 from . import _lines, _locks
 from ._brakes import Brakes
 from ._locks import LockTransitions
+from ._balance import check_balance
 from ._carry import Carried, deformations, event_rows, frame
 from ._modes import Motion, Shape, deformation_map
 from ._peaks import segment_peaks
@@ -76,7 +77,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                           y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
     if len(chain.records) == len(segments):   # (the series from the deformations carried)
         result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
-    return result
+    return result if model.brakes else check_balance(result) or result
 
 
 def _transitions(model):
@@ -420,22 +421,47 @@ def _start(g, tol: float, omega: float, limit: float) -> float | None:
     coef = g._modal()   # (kind, ω, α, γ, κ) of each mode, on floats
     _, w, alpha, gamma, _ = zip(*coef) if coef else ((),) * 5
     fastest = fastest_entering(alpha, gamma, w)
+    low = []   # (the derivatives below the first clear one: rounding)
     for p in range(1, order + 1):
         dp, size = next(terms)   # (each computed only where the ones below it are not clear)
         if abs(dp) > start_rounding(tol, omega, fastest, p, size):
             break
+        low.append(dp)
     else:
         return None
     if dp < 0:
         return 0.0
-    # g(τ) >= d_p τ^p / p! - B τ^(p+1) / (p+1)!, B >= |g^(p+1)|: positive up to (p+1) d_p / B
+    # g(τ) >= d_p τ^p / p! - B τ^(p+1) / (p+1)!, B >= |g^(p+1)| (:func:`taylor_lower`):
+    # positive up to (p+1) d_p / B
     lower = g
     for _ in range(p - 1):
         lower = lower.derivative()
     T = taylor_span(limit, fastest, omega)
     B = lower.curvature_bound(T)
     clear = (p + 1) * dp / B if B > 0 else T
-    return min(0.5 * clear, T)
+    # the search starts where that clears what the computed g has beside it (else its sign
+    # there would be theirs: a false crossing where g, proved positive, is below its rounding)
+    for tau in (min(0.5 * clear, T), min(p / (p + 1) * clear, T)):
+        S, C = g.modes.basis_at(tau)
+        size = sum(abs(a * s) + abs(c * x) for s, x, (_, _, a, c, _) in zip(S, C, coef))
+        if taylor_lower(dp, B, p, tau) > start_noise(g.c, low, tau, size):
+            return tau
+    return min(clear, T)
+
+
+def taylor_lower(dp, B, p: int, tau):
+    """A lower bound at ``tau`` [s] on a function whose first ``p - 1`` derivatives at 0 vanish,
+    its ``p``-th is ``dp`` and ``B`` bounds its ``(p+1)``-th: ``dp τ^p/p! - B τ^(p+1)/(p+1)!``.
+    Floats, or arrays (the batch's)."""
+    return dp * tau ** p / math.factorial(p) - B * tau ** (p + 1) / math.factorial(p + 1)
+
+
+def start_noise(c, low, tau, size):
+    """How far rounding can put a function's computed value at ``tau`` [s] from
+    :func:`taylor_lower`'s: its value and first derivatives at 0, ``c`` and ``low`` (rounding),
+    carried to ``tau``, and a few ulps of the sum's terms (``size``, their magnitudes summed)."""
+    carried = sum((abs(d) * tau ** q / math.factorial(q) for q, d in enumerate(low, 1)), abs(c))
+    return carried + 16 * _EPS * (size + abs(c))
 
 
 def fastest_entering(alpha, gamma, w):
