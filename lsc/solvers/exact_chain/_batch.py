@@ -34,7 +34,7 @@ from ...result import METRICS
 from ..base import solve_alone
 from ..exact.batch import _Rows
 from ._batch_modes import BatchMotion, ModesCache, Sums, mall, many, mmax
-from ._batch_peaks import extreme_values
+from ._batch_peaks import bars, extreme_values
 from ._batch_roots import earliest, start_times
 from ._modes import deformation_map
 from ._locks import LockTransitions
@@ -106,18 +106,6 @@ def _subset(p: dict, rows) -> dict:
 
 #: The metrics that may be NaN (not applicable) in a Result (``lsc.result._NOT_APPLICABLE``).
 _MAY_BE_NAN = ("restitution", "restitution_energy", "failure_time")
-
-
-def _bars(first, ongoing, r):
-    """(m, K + N - 2) of members ``r``: what each contact's force and each middle vehicle's
-    acceleration (magnitude) must exceed to change the first-impact record
-    (:func:`lsc.metrics.fold_peaks`, which folds them into the contacts whose first impact is
-    ``ongoing``; inf where none is): the peak force so far; the smaller magnitude of the
-    vehicle's peak accelerations in its two contacts (front of one, rear of the next)."""
-    ong = ongoing[r]
-    force = np.where(ong, first["peak_force"][r], np.inf)
-    acc = np.where(ong[..., None], np.abs(first["peak_acc"][r]), np.inf)     # (m, K, 2)
-    return np.concatenate([force, np.minimum(acc[:, :-1, 1], acc[:, 1:, 0])], axis=1)
 
 
 def _resolved(t0, t1):
@@ -321,7 +309,7 @@ class _Batch:
             vm = S["vm"][r]
             monotone = (vm != 0) & armed[:, 2::3][r] & ~np.isnan(rate_start)
             peaks, unsure = self._peaks(motion, slope, force, ix, r, tau[r], monotone,
-                                        vm == 0, S["fa"][r], _bars(first, ongoing, r))
+                                        vm == 0, S["fa"][r], bars(first, ongoing, r))
             keep[r[unsure]] = False
             F_pk = np.zeros((b, K))
             a_pk = np.zeros((b, N))
@@ -404,7 +392,7 @@ class _Batch:
         functions are all such takes its extremes at the two ends.
 
         Nor where the value cannot change the first-impact record: ``bars`` (m, K + N - 2)
-        (:func:`_bars`), what a force or a middle vehicle's acceleration must exceed to be
+        (:func:`._batch_peaks.bars`), what a force or a middle vehicle's acceleration must exceed to be
         folded into it (inf: not folded). A force lies in ``[0, U]``: ``U`` 0 open, the larger
         end loading all along, ``top_force`` (m, K) on an unloading line (``unloads`` (m, K):
         the line's top, ``(D_max, F_max)``, which the deformation stays below), unknown

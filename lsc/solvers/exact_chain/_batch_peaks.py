@@ -12,7 +12,7 @@ from ._batch_modes import Sums, many, mmax, mmin
 from ._batch_roots import MAX_WINDOWS, WINDOW, refine
 from ._roots import EXTREMUM_RTOL, PER_RADIAN
 
-__all__ = ["extreme_values", "FLAT", "PEAK_LEVELS"]
+__all__ = ["extreme_values", "bars", "FLAT", "PEAK_LEVELS"]
 
 #: An interval where a function's derivative may touch zero between samples of one sign is
 #: left at its samples where the largest excess of the function over them that this allows
@@ -193,3 +193,15 @@ def _windows(lo, hi, h, first, count, window=WINDOW):
         block[:, -1] = end
         start = end
     return tt, end
+
+
+def bars(first, ongoing, r):
+    """(m, K + N - 2) of members ``r``: what each contact's force and each middle vehicle's
+    acceleration (magnitude) must exceed to change the first-impact record
+    (:func:`lsc.metrics.fold_peaks`, which folds them into the contacts whose first impact is
+    ``ongoing``; inf where none is): the peak force so far; the smaller magnitude of the
+    vehicle's peak accelerations in its two contacts (front of one, rear of the next)."""
+    ong = ongoing[r]
+    force = np.where(ong, first["peak_force"][r], np.inf)
+    acc = np.where(ong[..., None], np.abs(first["peak_acc"][r]), np.inf)     # (m, K, 2)
+    return np.concatenate([force, np.minimum(acc[:, :-1, 1], acc[:, 1:, 0])], axis=1)
