@@ -533,3 +533,33 @@ def test_a_contact_pushed_below_the_rounding_of_the_modes_is_not_turned(speed):
     r = lsc.solve(scene, method="exact-chain")
     assert np.all(r.max_deformation >= 0.0)
     np.testing.assert_allclose(r.delta_v, ref.delta_v, rtol=0, atol=1e-8)
+
+
+def test_the_batch_s_start_rule_is_the_single_solve_s():
+    """Every start the single solve's rule (``_solve._start``) gives on the chain above, where
+    the search starts where the proof clears the rounding, the batch's
+    (``_batch_roots.start_times``) gives too, function by function."""
+    from lsc.solvers.exact_chain import _solve
+    from lsc.solvers.exact_chain._batch_modes import Sums
+    from lsc.solvers.exact_chain._batch_roots import start_times
+
+    calls, start = [], _solve._start
+
+    def recording(g, tol, omega, limit):
+        calls.append((g, tol, omega, limit, start(g, tol, omega, limit)))
+        return calls[-1][-1]
+
+    scene = _far_push(1e2, 1e9)
+    scene["vehicles"][0] = dict(scene["vehicles"][0], speed=1.001)
+    _solve._start = recording
+    try:
+        lsc.solve(scene, method="exact-chain")
+    finally:
+        _solve._start = start
+    late = [s for *_, s in calls if s not in (None, 0.0)]
+    assert len(late) >= 3
+    for g, tol, omega, limit, s in calls:
+        h = Sums(np.array([[g.c]]), g.alpha[None, None], g.gamma[None, None],
+                 g.modes.kappa[None], g.modes.w[None])
+        got = start_times(h, np.array([[tol]]), np.array([omega]), np.array([limit]))[0, 0]
+        assert (np.isnan(got) and s is None) or got == pytest.approx(s, rel=1e-12, abs=0.0)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ._batch_modes import Sums, first_true, half_angle, many, many_rows, mmax, msum
 from ._roots import PER_RADIAN, TOUCH
-from ._solve import fastest_entering, start_rounding, taylor_span
+from ._solve import fastest_entering, start_noise, start_rounding, taylor_lower, taylor_span
 
 __all__ = ["start_times", "earliest", "refine", "WINDOW", "LEVELS"]
 
@@ -40,8 +40,9 @@ def start_times(g: Sums, tol, omega, limit):
     functions, on every function at once: 0 normally; NaN where it stays on its surface all
     along the segment; where it starts within ``tol`` (b, F) of zero, judged by its first
     derivative clear of its rounding (``omega`` (b,) [1/s] the start state's rate): 0 going
-    down (it fires now where ``g(0) <= 0``), going up the half of the interval over which its
-    Taylor polynomial and a bound on the next derivative keep it positive."""
+    down (it fires now where ``g(0) <= 0``), going up within the interval over which its
+    Taylor polynomial and a bound on the next derivative keep it positive, where that bound
+    clears the computed value's rounding (:func:`_clear_of_rounding`)."""
     c = g.c
     out = np.zeros(c.shape)
     on = np.abs(c) <= tol
@@ -59,7 +60,7 @@ def start_times(g: Sums, tol, omega, limit):
     T = taylor_span(limit[rows], fastest, om)
     s = np.full(rows.size, np.nan)
     todo = np.ones(rows.size, bool)
-    lower = h
+    lower, lows = h, []
     for p in range(1, order + 1):
         d = lower.derivative()
         size = size.derivative()
@@ -68,12 +69,33 @@ def start_times(g: Sums, tol, omega, limit):
         if hit.any():
             B = lower.curvature_bound(T[:, None])[:, 0]
             clear = np.where(B > 0, (p + 1) * dp / np.where(B > 0, B, 1.0), T)
-            s = np.where(hit, np.where(dp < 0, 0.0, np.minimum(0.5 * clear, T)), s)
+            s = np.where(hit, 0.0, s)
+            up = np.flatnonzero(hit & (dp >= 0))
+            if up.size:
+                s[up] = _clear_of_rounding(h, up, dp[up], B[up], p, clear[up], T[up],
+                                           [x[up] for x in lows])
             todo &= ~hit
         if not todo.any():
             break
         lower = d
+        lows.append(dp)
     out[rows, cols] = s
+    return out
+
+
+def _clear_of_rounding(h: Sums, up, dp, B, p: int, clear, T, low):
+    """:func:`._solve._start`'s start of the functions ``up`` of ``h`` going up (their ``p``-th
+    derivative ``dp`` the first clear one, ``B`` a bound on the next, ``low`` the ones below):
+    where the Taylor bound clears what the computed value has beside it
+    (:func:`._solve.start_noise`), at half or ``p/(p+1)`` of the interval it proves, else that
+    interval's end."""
+    sub = Sums(h.c[up], h.alpha[up], h.gamma[up], h.kappa[up], h.w[up])
+    terms = Sums(np.zeros_like(sub.c), np.abs(sub.alpha), np.abs(sub.gamma), sub.kappa, sub.w)
+    out = np.minimum(clear, T)
+    for tau in (np.minimum(p / (p + 1) * clear, T), np.minimum(0.5 * clear, T)):
+        clears = taylor_lower(dp, B, p, tau) > start_noise(sub.c[:, 0], low, tau,
+                                                           terms.each_at(tau)[:, 0])
+        out = np.where(clears, tau, out)   # (the earlier candidate, last, wins)
     return out
 
 
