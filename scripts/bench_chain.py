@@ -36,11 +36,15 @@ Target (issue 13): exact-chain at least 50x faster than SciPy at rtol = 1e-10.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 import lsc
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))   # (the tests' chains)
 
 SCENE = {
     "name": "three-car pile-up at a light",
@@ -184,10 +188,6 @@ def agreement_chains():
     """260 chains: 50 random ones of each of 3 to 6 vehicles (the batch tests' members), 40
     near-plastic ones (many end at the event limit: the same error is expected) and 20 whose
     front contact has a falling table piece (hyperbolic modes)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     from test_exact_chain_batch import random_chains
 
     for N in (3, 4, 5, 6):
@@ -220,6 +220,8 @@ def agreement(dump: str | None, against: str | None) -> None:
 
     from lsc.result import METRICS
 
+    from test_exact_chain_batch import SCALE_OF
+
     out = []
     for scene in agreement_chains():
         try:
@@ -246,15 +248,18 @@ def agreement(dump: str | None, against: str | None) -> None:
             differ += 1
             print(f"chain {i}: a different sequence of events")
             continue
-        pairs = [("event times", np.array([e[0] for e in a[1]]), np.array([e[0] for e in b[1]]))]
-        pairs += [(n, v, b[0][n]) for n, v in a[0].items()]
-        for name, x, y in pairs:
+        times = np.array([e[0] for e in a[1]])
+        pairs = [("event times", times, np.array([e[0] for e in b[1]]), times)]
+        # (each metric relative to its scale in the chain: a permanent deformation to the max
+        # deformation's, as the tests compare them; one that is zero has no scale of its own)
+        pairs += [(n, v, b[0][n], a[0][SCALE_OF.get(n, n)]) for n, v in a[0].items()]
+        for name, x, y, of in pairs:
             ok = ~np.isnan(x)
             if not np.array_equal(ok, ~np.isnan(y)):
                 differ += 1
                 print(f"chain {i}: {name} defined elsewhere")
             elif ok.any():
-                d = float(np.max(np.abs(x[ok] - y[ok])) / max(np.max(np.abs(x[ok])), 1e-300))
+                d = float(np.max(np.abs(x[ok] - y[ok])) / max(np.nanmax(np.abs(of)), 1e-300))
                 if not np.array_equal(x[ok], y[ok]):
                     unequal.add(i)
                 if d > worst:
