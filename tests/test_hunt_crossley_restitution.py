@@ -57,3 +57,22 @@ def test_low_target_restitution_scene_rebounds_at_it(e):
     assert r.restitution[0] == pytest.approx(e, rel=1e-8)
     # momentum, and ΔV = (1 + e) times the plastic one
     assert r.delta_v[1] == pytest.approx((1 + e) * 1000 * 5 / 2500, rel=1e-8)
+
+
+def test_a_damping_law_that_chatters_at_its_event_limit_says_how_and_what_solves_it():
+    """Hunt–Crossley at e = 1e-12: its restoring factor 1 + α dD/dt is far stiffer than DOP853
+    (auto's integrator) steps, and the turn and the recompression alternate to the event limit.
+    The message said only "check the scene for contacts that chatter"; it now names the contact,
+    its events and what solves it, and that does (ΔV the plastic one)."""
+    from test_fd_step_floor import PLASTIC_DV, _scene
+
+    with pytest.raises(lsc.SimulationError) as err:
+        lsc.solve(_scene(1e-12), method="scipy", max_events=40)
+    assert str(err.value) == (
+        "event limit reached (40 events by t = 1.09356e-05 s) and the crash is not over: raise "
+        "solver.max_events, or check the scene for contacts that chatter; contact 0 chatters, "
+        "its last 20 of 20 events: recompression x10, max_deformation x10 (its damping law's "
+        "restoring factor is stiffer at this restitution than an explicit integrator steps: "
+        "solve with integrator='Radau' or method='diffrax')")
+    r = lsc.solve(_scene(1e-12), method="scipy", integrator="Radau")
+    np.testing.assert_allclose(r.delta_v, PLASTIC_DV, rtol=1e-9)

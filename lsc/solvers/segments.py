@@ -77,7 +77,8 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         if len(events) >= max_events:
             raise SimulationError(
                 f"event limit reached ({max_events} events by t = {t:.6g} s) and the crash is not "
-                "over: raise solver.max_events, or check the scene for contacts that chatter")
+                "over: raise solver.max_events, or check the scene for contacts that chatter"
+                + _chatter(model, events))
         step = advance(t, y, disc, horizon)
         totals["steps"] += step.steps
         totals["nfev"] += step.nfev
@@ -115,6 +116,35 @@ def run_segments(model, advance, *, t_end=None, max_events=10_000):
         t, y = step.t, np.asarray(step.y, float)
     totals["y_post"] = y if y_post is None else y_post
     return segments, events, y, disc, totals
+
+
+#: How many of a run's last events :func:`_chatter` reads.
+CHATTER_TAIL = 20
+
+
+def _chatter(model, events) -> str:
+    """What the last :data:`CHATTER_TAIL` events of a run at its event limit tell, where most
+    are one contact's: that contact and its events; and, where they are a damping law's turn
+    and recompression over and over (its restoring factor, ``1 + α Ḋ`` or ``k + c Ḋ``, stiffer
+    at a tiny restitution than an explicit integrator steps: Hunt–Crossley at e = 1e-12 with
+    DOP853), the integrators that follow it ("" otherwise)."""
+    from collections import Counter
+
+    from ..laws import SpringDashpotLaw
+
+    tail = events[-CHATTER_TAIL:]
+    (k, most), = Counter(e.index for e in tail).most_common(1) or [(None, 0)]
+    laws = getattr(model, "laws", ())
+    if k is None or most < 0.8 * len(tail) or not 0 <= k < len(laws):
+        return ""
+    kinds = Counter(e.kind for e in tail if e.index == k)
+    text = (f"; contact {k} chatters, its last {most} of {len(tail)} events: "
+            + ", ".join(f"{kind} x{n}" for kind, n in kinds.items()))
+    if isinstance(laws[k], SpringDashpotLaw) and set(kinds) <= {"max_deformation",
+                                                                "recompression"}:
+        text += (" (its damping law's restoring factor is stiffer at this restitution than an "
+                 "explicit integrator steps: solve with integrator='Radau' or method='diffrax')")
+    return text
 
 
 def contact_records(model, disc) -> list[dict]:
