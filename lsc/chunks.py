@@ -79,7 +79,7 @@ def solve_task(task: Task, progress=None) -> dict:
     n = len(task)
     status = validate(task.scene, task.values, n)
     metrics = empty_metrics(task.scene, n, task.metrics)
-    warnings = no_warnings(n)
+    warnings = warning_array([()] * n)
     if task.batch:
         _batch(task, status, metrics, warnings, progress)
     else:
@@ -87,10 +87,12 @@ def solve_task(task: Task, progress=None) -> dict:
     return {"metrics": metrics, "status": status, "warnings": warnings}
 
 
-def no_warnings(n: int) -> np.ndarray:
-    """(n,) object array of empty tuples: no member has a warning."""
-    out = np.empty(n, dtype=object)
-    out[:] = [()] * n
+def warning_array(items) -> np.ndarray:
+    """(n,) object array of each member's warnings, ``items`` (tuples of strings; ``[()] * n``:
+    none has any)."""
+    items = list(items)
+    out = np.empty(len(items), dtype=object)
+    out[:] = items
     return out
 
 

@@ -158,10 +158,10 @@ class SweepFile:
     @property
     def warnings(self) -> np.ndarray:
         """Each member's warnings, a tuple (empty where none), as :class:`lsc.SweepResult`'s."""
-        texts = self.column("warnings")
-        out = np.empty(len(texts), dtype=object)
-        out[:] = [tuple(text.split("\n")) if text else () for text in texts]
-        return out
+        from .chunks import warning_array
+
+        return warning_array(tuple(text.split("\n")) if text else ()
+                             for text in self.column("warnings"))
 
     @property
     def ok(self) -> np.ndarray:

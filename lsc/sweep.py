@@ -91,8 +91,8 @@ class SweepResult:
 
     def __post_init__(self):
         if self.warnings is None:
-            from .chunks import no_warnings
-            self.warnings = no_warnings(len(self.status))
+            from .chunks import warning_array
+            self.warnings = warning_array([()] * len(self.status))
 
     def __getattr__(self, name):
         metrics = self.__dict__.get("metrics", {})
@@ -177,9 +177,7 @@ class SweepResult:
 def warning_text(warnings) -> np.ndarray:
     """(n,) object array of str: each member's warnings joined by newlines ("" where none), as
     CSV, DataFrames and Parquet files hold them."""
-    out = np.empty(len(warnings), dtype=object)
-    out[:] = ["\n".join(w) for w in warnings]
-    return out
+    return np.array(["\n".join(w) for w in warnings], dtype=object)
 
 
 def _csv_text(text: str) -> str:
@@ -332,11 +330,11 @@ class _Memory:
     """The consumer of :func:`lsc.chunks.run_tasks` that fills whole arrays (n members)."""
 
     def __init__(self, scene: Scene, n: int, names: tuple):
-        from .chunks import empty_metrics, no_warnings
+        from .chunks import empty_metrics, warning_array
 
         self.metrics = empty_metrics(scene, n, names)
         self.status = np.full(n, "ok", dtype=object)
-        self.warnings = no_warnings(n)
+        self.warnings = warning_array([()] * n)
 
     def __call__(self, start: int, task, result: dict) -> None:
         stop = start + len(task)

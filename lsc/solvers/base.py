@@ -268,6 +268,7 @@ class Backend:
         ``Result.warnings``, those of the members the backend solves alone
         (:func:`solve_alone`) and, for the others, what the metrics say
         (:func:`lsc.laws.damping_tails.member_tails`)."""
+        from ..chunks import warning_array
         from ..laws.damping_tails import member_tails
 
         self.check(model, batch=True)
@@ -280,9 +281,8 @@ class Backend:
             _ALONE_WARNINGS.reset(token)
         met = out["metrics"]
         tails = member_tails(model.scene, met["max_deformation"], met["permanent_deformation"])
-        warnings = np.empty(len(tails), dtype=object)
-        warnings[:] = [alone.get(j, tail) for j, tail in enumerate(tails)]
-        return {**out, "warnings": warnings}
+        return {**out, "warnings": warning_array(alone.get(j, tail)
+                                                 for j, tail in enumerate(tails))}
 
 
 def solve_alone(solve, model, values: dict, members, metrics: dict, status, *, progress=None,
