@@ -77,7 +77,7 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
                           y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
     if len(chain.records) == len(segments):   # (the series from the deformations carried)
         result.sampler = _lines.Sampler(model, segments, y, n_samples, chain)
-    return result if model.brakes else check_balance(result) or result
+    return check_balance(result, model.brakes)
 
 
 def _transitions(model):
