@@ -29,6 +29,7 @@ from .model import HybridModel
 from .result import METRICS
 from .scene import GAP_RATIO, MAGNITUDES, Damping, Scene, UnloadingStiffness
 from . import parameters, solvers
+from .solvers.base import warning_array
 
 __all__ = ["Task", "solve_task", "run_tasks", "task_size", "slots", "window", "is_dask",
            "executor_from", "MAX_TASK", "MIN_TASK", "DASK_RETRIES"]
@@ -85,15 +86,6 @@ def solve_task(task: Task, progress=None) -> dict:
     else:
         _loop(task, status, metrics, warnings, progress)
     return {"metrics": metrics, "status": status, "warnings": warnings}
-
-
-def warning_array(items) -> np.ndarray:
-    """(n,) object array of each member's warnings, ``items`` (tuples of strings; ``[()] * n``:
-    none has any)."""
-    items = list(items)
-    out = np.empty(len(items), dtype=object)
-    out[:] = items
-    return out
 
 
 # --------------------------------------------------------------------------- validation

@@ -158,7 +158,7 @@ class SweepFile:
     @property
     def warnings(self) -> np.ndarray:
         """Each member's warnings, a tuple (empty where none), as :class:`lsc.SweepResult`'s."""
-        from .chunks import warning_array
+        from .solvers.base import warning_array
 
         return warning_array(tuple(text.split("\n")) if text else ()
                              for text in self.column("warnings"))

@@ -91,7 +91,7 @@ class SweepResult:
 
     def __post_init__(self):
         if self.warnings is None:
-            from .chunks import warning_array
+            from .solvers.base import warning_array
             self.warnings = warning_array([()] * len(self.status))
 
     def __getattr__(self, name):
@@ -330,7 +330,8 @@ class _Memory:
     """The consumer of :func:`lsc.chunks.run_tasks` that fills whole arrays (n members)."""
 
     def __init__(self, scene: Scene, n: int, names: tuple):
-        from .chunks import empty_metrics, warning_array
+        from .chunks import empty_metrics
+        from .solvers.base import warning_array
 
         self.metrics = empty_metrics(scene, n, names)
         self.status = np.full(n, "ok", dtype=object)

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import SceneError
 
 __all__ = ["Option", "OPTIONS", "CONTROLS", "MAX_SAMPLES", "Backend", "check_option",
-           "solve_alone"]
+           "solve_alone", "warning_array"]
 
 #: Most points in a Result's sampled series (``n_samples``): a million rows of every series.
 MAX_SAMPLES = 1_000_000
@@ -268,7 +268,6 @@ class Backend:
         ``Result.warnings``, those of the members the backend solves alone
         (:func:`solve_alone`) and, for the others, what the metrics say
         (:func:`lsc.laws.damping_tails.member_tails`)."""
-        from ..chunks import warning_array
         from ..laws.damping_tails import member_tails
 
         self.check(model, batch=True)
@@ -283,6 +282,15 @@ class Backend:
         tails = member_tails(model.scene, met["max_deformation"], met["permanent_deformation"])
         return {**out, "warnings": warning_array(alone.get(j, tail)
                                                  for j, tail in enumerate(tails))}
+
+
+def warning_array(items) -> np.ndarray:
+    """(n,) object array of each member's warnings, ``items`` (tuples of strings; ``[()] * n``:
+    none has any)."""
+    items = list(items)
+    out = np.empty(len(items), dtype=object)
+    out[:] = items
+    return out
 
 
 def solve_alone(solve, model, values: dict, members, metrics: dict, status, *, progress=None,
