@@ -20,7 +20,7 @@ from ...laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING
 from ..segments import _full, _Sampler
 from ._carry import frame
 
-__all__ = ["force", "places", "leave", "line_rows", "Sampler"]
+__all__ = ["force", "places", "leave", "exact_forces", "rate_omega", "line_rows", "Sampler"]
 
 #: What a line's discrete state is known by (the same line: the same numbers).
 _LINE = ("mode", "seg", "da", "fa", "s", "wl")
@@ -33,6 +33,31 @@ def force(st, place: int) -> float:
     if place:
         return float(st["fa"])
     return 0.0 if st["seg"] <= 0 else float(st["fa"]) - float(st["s"]) * float(st["wl"])
+
+
+def exact_forces(contacts, D0, tol_d: float) -> set:
+    """The contacts whose force at a segment's start is exact, not their slope times their
+    deformation's rounding: those on an unloading line wider than ``tol_d`` [length] (one the
+    solve follows; a narrower one's place is not resolved, :func:`places`) at its anchor,
+    ``D0 == da`` (``D0``: the deformations carried [length]; the law anchored the line at that
+    very deformation, at the turn or at a lock's release: the force is the anchor's, ``fa``)."""
+    return {k for k, st in enumerate(contacts) if st["mode"] == MODE_UNLOADING
+            and st["hi"] - st["lo"] > tol_d and D0[k] == float(st["da"])}
+
+
+def rate_omega(m, slopes, contacts, D0, tol_d: float, fastest: float, slowest: float) -> float:
+    """The rate [1/s] at which the deformations' rounding ``tol_d`` [length] drives the closing
+    rates' at a segment's start (a force ``s tol_d`` drives a rate's derivatives as ``ω tol_d``
+    does its value): the chain's ``fastest`` mode, or, where some contacts' forces are exact
+    (:func:`exact_forces`: their deformation's rounding drives none), a bound on the fastest
+    mode with their slopes left out (Gershgorin's, ``ω² <= max_i 2 (s_(i-1) + s_i) / m_i``;
+    ``m`` the masses, ``slopes`` the contacts'), at least ``slowest`` (``1 / t_scale``)."""
+    exact = exact_forces(contacts, D0, tol_d)
+    if not exact:
+        return fastest
+    s = [0.0, *(0.0 if k in exact else float(a) for k, a in enumerate(slopes)), 0.0]
+    bound = math.sqrt(max(2.0 * (a + b) / float(mi) for a, b, mi in zip(s, s[1:], m)))
+    return min(fastest, max(bound, slowest))
 
 
 def places(chain, contacts, tol_d: float) -> dict:

@@ -62,16 +62,14 @@ def solve(model, *, t_end=None, n_samples: int = 1000, max_events: int = 10_000)
     notes = lock_warnings(events).get("warnings", []) + chain.warnings()
     stats = {"steps": totals["steps"], "rhs_evaluations": 0, "segments": len(segments),
              "wall_time": time.perf_counter() - start, **({"warnings": notes} if notes else {})}
-    if isinstance(transitions, LockTransitions):
-        # (the locking model's forces, locked ones included, at the event points)
-        model = transitions._locking
+    if isinstance(transitions, LockTransitions):   # (the locking model's forces at the
+        model = transitions._locking                # events, the locked ones' included)
         rows = event_rows(chain, segments, model)
     else:
         rows = event_rows(chain, segments)
-    # (a narrow rebound line's force, the line's own at the end it is at: ._lines)
+    # (a narrow rebound line's force, the line's own at the end it is at: ._lines; the peaks
+    # between the events, located exactly by the chain's own search, all segments at once)
     rows = _lines.line_rows(chain.lines, rows, segments, model)
-    # the peaks between the events, located exactly by the chain's own search, all segments
-    # at once
     result = build_result(model, segments, events, y, disc, method="exact-chain",
                           tolerances={}, stats=stats, n_samples=n_samples,
                           y_post=totals["y_post"], peaks=chain.spans(), interior=False, rows=rows)
@@ -258,9 +256,12 @@ class _Chain:
         """``[(event index, Series, tolerance at the start)]`` for every armed event (``lines``:
         the narrow lines' contacts at their top, 1, or foot, 0: ``D - da`` is 0 or ``-wl``;
         ``tol_d``: :meth:`_tol_d` at the start)."""
-        # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode: a
-        # force k tol_d drives the rate's derivatives as ω tol_d does its value)
-        tol_w = self._tol_v(v0) + max(motion.modes.fastest(), 1.0 / self.t_scale) * tol_d
+        # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode
+        # that an inexact force drives (._lines.rate_omega); a narrow line's own rate: all)
+        fastest = max(motion.modes.fastest(), 1.0 / self.t_scale)
+        stiff = self._tol_v(v0) + fastest * tol_d
+        tol_w = self._tol_v(v0) + _lines.rate_omega(
+            self.m, slopes, disc[: self.K], D0, tol_d, fastest, 1.0 / self.t_scale) * tol_d
         out, leaves = [], {}   # (leaves: each narrow line's way out, judged once)
         for i in self.parts.active_events(disc):
             k, which = self.parts.events[i]
@@ -290,7 +291,7 @@ class _Chain:
                                        -1.0)
             if k not in leaves:
                 leaves[k] = self._leaves_narrow_line(k, st, D0, W0, disc, x0, v0, tol_d,
-                                                     tol_w)
+                                                     stiff)
             tol = NOW if leaves[k] == which else tol_d
             out.append((i, g, tol))
         return out
@@ -300,8 +301,7 @@ class _Chain:
         return START_TOL * self.length + 16 * _EPS * max(map(abs, x0.tolist()))
 
     def _tol_v(self, v0) -> float:
-        """The rounding [velocity] of a closing rate at the start (speeds ``v0``), its
-        deformation's aside."""
+        """The rounding [velocity] of a closing rate at the start (speeds ``v0``) alone."""
         return START_TOL * self.model.v_scale + 16 * _EPS * max(map(abs, v0.tolist()))
 
     def _bounces(self, contacts, D0, W0, disc, x0, v0, tol_d) -> tuple:
