@@ -617,13 +617,14 @@ def test_the_rows_at_the_events_are_the_models_forces_at_the_segment_ends():
     output (lsc.solvers.segments.event_rows), on a chain with a table, a gap and re-closings
     (to 1e-12 of their scales: the rows' deformations are the carried ones, the dense output's
     differences of positions)."""
-    from lsc.solvers.exact_chain._carry import event_rows as chain_rows
+    from lsc.solvers.exact_chain._carry import Carried, event_rows as chain_rows
     from lsc.solvers.exact_chain._solve import _Chain, _transitions
     from lsc.solvers.segments import event_rows, run_segments
 
     model = HybridModel(lsc.Scene.load(FOUR_CARS))
     chain = _Chain(model)
-    segments, _, y, _, _ = run_segments(_transitions(model), chain.advance)
+    chain.parts = _transitions(model)   # (the loop as the solve runs it: the deformations carried)
+    segments, _, y, _, _ = run_segments(Carried(chain.parts, chain), chain.advance)
     rows, ref = chain_rows(chain, segments), event_rows(model, segments, y)
     assert len(segments) > 10 and set(rows) == set(ref)
     for name in ref:
