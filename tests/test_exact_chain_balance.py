@@ -134,3 +134,28 @@ def test_random_chains_close_their_balance_far_below_the_refusal():
                           method="exact-chain")
             worst = max(worst, _balance(r))
     assert worst < 1e-12 < BALANCE
+
+
+def test_the_batch_leaves_out_the_same_forces():
+    """The batch's :func:`_lines.rate_omega` (arrays, one value per member) is the single
+    solve's on each member, exactly: members at and off their anchors, on wide and narrow
+    lines, loading and unloading."""
+    rng = np.random.default_rng(5)
+    b, K = 200, 3
+    m = 10 ** rng.uniform(0, 3, (b, K + 1))
+    slopes = 10 ** rng.uniform(2, 15, (b, K))
+    mode = rng.choice([lsc.laws.MODE_LOADING, lsc.laws.MODE_UNLOADING], (b, K))
+    da = rng.uniform(0, 1, (b, K))
+    D0 = np.where(rng.random((b, K)) < 0.6, da, da - 1e-13)
+    hi = da
+    lo = hi - 10 ** rng.uniform(-16, -10, (b, K))
+    tol_d = 10 ** rng.uniform(-15, -12, b)
+    fastest, slowest = 10 ** rng.uniform(6, 8, b), np.full(b, 1.0)
+    S = {"mode": mode, "da": da, "hi": hi, "lo": lo}
+    got = _lines.rate_omega(m, slopes, S, D0, tol_d, fastest, slowest)
+    want = [_lines.rate_omega(m[i], slopes[i], [{key: a[i, k] for key, a in S.items()}
+                                                for k in range(K)],
+                              D0[i].tolist(), float(tol_d[i]), float(fastest[i]), 1.0)
+            for i in range(b)]
+    assert np.array_equal(got, want)
+    assert 20 < np.count_nonzero(got < fastest) < b   # (some members leave forces out)

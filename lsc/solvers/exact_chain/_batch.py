@@ -40,6 +40,7 @@ from ._modes import deformation_map
 from ._locks import LockTransitions
 from ._balance import balanced
 from ._carry import Carried
+from ._lines import rate_omega
 from ._solve import START_TOL, _Chain, _transitions, solve as solve_one
 
 __all__ = ["solve_batch", "HANDOFF_EVENTS"]
@@ -275,7 +276,7 @@ class _Batch:
         D0, W0 = w["D"], v0 @ self.C.T
         # (each contact's numbers the segment reads, stacked (b, K) once)
         S = {key: np.stack([s[key] for s in st], axis=1)
-             for key in ("s", "fa", "da", "wl", "lo", "hi", "vm")}
+             for key in ("s", "fa", "da", "wl", "lo", "hi", "vm", "mode")}
         slope = S["s"]
         force = S["fa"] + slope * (D0 - S["da"])
         known = self.modes.get(ix, slope)
@@ -362,11 +363,11 @@ class _Batch:
         dev, rate = motion.rows(P), motion.rates(P)           # ΔD_k, ΔḊ_k as series (b, K)
         length = self.v_scale[ix] * self.t_scale[ix]
         tol_d = START_TOL * length + 16 * _EPS * mmax(np.abs(x0))
-        # (a rate's rounding includes the deformation's through the fastest mode, as the
-        # single solve's: a rounding-size k D at a touch would fire max deformation and reload
-        # at one instant, over and over, up to HANDOFF_EVENTS)
-        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * mmax(np.abs(v0))
-                 + omega * tol_d)
+        # (a rate's rounding includes the deformation's through the fastest mode that an
+        # inexact force drives, as the single solve's, ._lines.rate_omega: a rounding-size k D
+        # at a touch would fire max deformation and reload at one instant, over and over)
+        tol_w = (START_TOL * self.v_scale[ix] + 16 * _EPS * mmax(np.abs(v0)) + tol_d
+                 * rate_omega(self.m[ix], S["s"], S, D0, tol_d, omega, 1.0 / self.t_scale[ix]))
         def three(lower, upper, rate_):     # (b, K, ...) each, to (b, 3K, ...) in that order
             return np.stack([lower, upper, rate_], axis=2).reshape(b, 3 * K, *lower.shape[2:])
         # each contact's: its piece's lower end reached going down, (D - da) + wl; its upper

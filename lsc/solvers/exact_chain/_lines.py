@@ -35,29 +35,43 @@ def force(st, place: int) -> float:
     return 0.0 if st["seg"] <= 0 else float(st["fa"]) - float(st["s"]) * float(st["wl"])
 
 
-def exact_forces(contacts, D0, tol_d: float) -> set:
+def exact_forces(contacts, D0, tol_d):
     """The contacts whose force at a segment's start is exact, not their slope times their
     deformation's rounding: those on an unloading line wider than ``tol_d`` [length] (one the
     solve follows; a narrower one's place is not resolved, :func:`places`) at its anchor,
     ``D0 == da`` (``D0``: the deformations carried [length]; the law anchored the line at that
-    very deformation, at the turn or at a lock's release: the force is the anchor's, ``fa``)."""
+    very deformation, at the turn or at a lock's release: the force is the anchor's, ``fa``).
+    A set of contacts (``contacts`` their states, a list); or the batch's mask (b, K)
+    (``contacts`` their numbers stacked (b, K) by key, ``D0`` (b, K), ``tol_d`` (b,))."""
+    if isinstance(contacts, dict):
+        return ((contacts["mode"] == MODE_UNLOADING) & (D0 == contacts["da"])
+                & (contacts["hi"] - contacts["lo"] > tol_d[:, None]))
     return {k for k, st in enumerate(contacts) if st["mode"] == MODE_UNLOADING
             and st["hi"] - st["lo"] > tol_d and D0[k] == float(st["da"])}
 
 
-def rate_omega(m, slopes, contacts, D0, tol_d: float, fastest: float, slowest: float) -> float:
+def rate_omega(m, slopes, contacts, D0, tol_d, fastest, slowest):
     """The rate [1/s] at which the deformations' rounding ``tol_d`` [length] drives the closing
     rates' at a segment's start (a force ``s tol_d`` drives a rate's derivatives as ``ω tol_d``
     does its value): the chain's ``fastest`` mode, or, where some contacts' forces are exact
     (:func:`exact_forces`: their deformation's rounding drives none), a bound on the fastest
     mode with their slopes left out (Gershgorin's, ``ω² <= max_i 2 (s_(i-1) + s_i) / m_i``;
-    ``m`` the masses, ``slopes`` the contacts'), at least ``slowest`` (``1 / t_scale``)."""
+    ``m`` the masses, ``slopes`` the contacts'), at least ``slowest`` (``1 / t_scale``).
+    Floats; or the batch's arrays, one value per member (``m`` (b, N), ``slopes`` (b, K),
+    ``fastest`` and ``slowest`` (b,), the rest as :func:`exact_forces` has them)."""
     exact = exact_forces(contacts, D0, tol_d)
-    if not exact:
+    if isinstance(exact, set):
+        if not exact:
+            return fastest
+        s = [0.0, *(0.0 if k in exact else float(a) for k, a in enumerate(slopes)), 0.0]
+        bound = math.sqrt(max(2.0 * (a + b) / float(mi) for a, b, mi in zip(s, s[1:], m)))
+        return min(fastest, max(bound, slowest))
+    some = exact.any(axis=1)
+    if not some.any():
         return fastest
-    s = [0.0, *(0.0 if k in exact else float(a) for k, a in enumerate(slopes)), 0.0]
-    bound = math.sqrt(max(2.0 * (a + b) / float(mi) for a, b, mi in zip(s, s[1:], m)))
-    return min(fastest, max(bound, slowest))
+    s = np.pad(np.where(exact, 0.0, slopes), ((0, 0), (1, 1)))
+    bound = np.sqrt(np.max(2.0 * (s[:, :-1] + s[:, 1:]) / m, axis=1))
+    return np.where(some, np.minimum(fastest, np.maximum(bound, slowest)), fastest)
 
 
 def places(chain, contacts, tol_d: float) -> dict:
