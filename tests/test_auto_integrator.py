@@ -97,3 +97,26 @@ def test_a_sweep_picks_the_integrator_member_by_member():
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(pytest.main([__file__]))
+
+
+def test_a_finite_difference_stencil_is_solved_by_one_integrator(monkeypatch):
+    """A sensitivity's stencil around e = 1e-11 (rtol 1e-12: stiff below e ≈ 1e-10) reaches
+    e ≈ 1e-6 (its step's floor): each solve picking its own integrator mixed Radau at the centre
+    with DOP853 around it, their differences of a tolerance's size taken for a slope. The base
+    scene's integrator solves them all."""
+    from lsc import api
+    from lsc.analysis import sensitivity
+
+    methods = []
+    solve = api.solve
+
+    def recorded(*args, **kwargs):
+        r = solve(*args, **kwargs)
+        methods.append(r.method)
+        return r
+
+    monkeypatch.setattr(api, "solve", recorded)
+    s = sensitivity(_scene(1e-11), ["contacts.0.restitution"], method="finite-difference",
+                    metrics=["delta_v"])
+    assert len(methods) > 2 and set(methods) == {"scipy-Radau"}
+    np.testing.assert_allclose(s.derivatives["delta_v"][:, 0], PLASTIC_DV, rtol=1e-6)
