@@ -25,7 +25,8 @@ def solve(scene, method: str | None = None, **options):
         backend accepts is a :class:`~lsc.errors.SceneError` with every method.
     **options
         Backend options, overriding the scene's ``[solver]`` table: ``rtol``, ``atol``,
-        ``integrator`` (SciPy: ``"DOP853"`` default, ``"RK45"``, ``"LSODA"``, ``"Radau"``, ...),
+        ``integrator`` (SciPy: ``"DOP853"``, ``"RK45"``, ``"LSODA"``, ``"Radau"``, ...; none
+        given: DOP853, or Radau for a stiff damping law, :mod:`lsc.solvers.stiffness`),
         ``dt`` [s] (reference), ``t_end`` [s] (simulate until then; must not cut the crash),
         ``max_events``, ``n_samples`` (points in the sampled series, at most
         :data:`lsc.solvers.MAX_SAMPLES`); ranges in :func:`lsc.solvers.check_option`.

@@ -195,13 +195,14 @@ def default_settings() -> dict[str, str]:
     """method → its setting when ``lsc.solve`` is given none (read from the backends' own
     signatures): the points marked "default" on the diagrams."""
     import inspect
-    from lsc.solvers import reference, scipy_ode
+    from lsc.solvers import reference, scipy_ode, stiffness
 
     def default(fn, name):
         return inspect.signature(fn).parameters[name].default
 
     out = {"reference": f"dt={default(reference.solve, 'dt'):g}",
-           f"scipy {default(scipy_ode.solve, 'integrator')}":
+           # (no integrator named: DOP853, but for a stiff damping law, lsc.solvers.stiffness)
+           f"scipy {default(scipy_ode.solve, 'integrator') or stiffness.DEFAULT}":
                f"rtol={default(scipy_ode.solve, 'rtol'):g}"}
     if have_diffrax():
         from lsc.solvers import diffrax_ode

@@ -61,13 +61,14 @@ def test_low_target_restitution_scene_rebounds_at_it(e):
 
 def test_a_damping_law_that_chatters_at_its_event_limit_says_how_and_what_solves_it():
     """Hunt–Crossley at e = 1e-12: its restoring factor 1 + α dD/dt is far stiffer than DOP853
-    (auto's integrator) steps, and the turn and the recompression alternate to the event limit.
+    (auto's integrator before it took Radau for such a contact: tests/test_auto_integrator.py)
+    steps, and the turn and the recompression alternate to the event limit.
     The message said only "check the scene for contacts that chatter"; it now names the contact,
     its events and what solves it, and that does (ΔV the plastic one)."""
     from test_fd_step_floor import PLASTIC_DV, _scene
 
     with pytest.raises(lsc.SimulationError) as err:
-        lsc.solve(_scene(1e-12), method="scipy", max_events=40)
+        lsc.solve(_scene(1e-12), method="scipy", integrator="DOP853", max_events=40)
     assert str(err.value) == (
         "event limit reached (40 events by t = 1.09356e-05 s) and the crash is not over: raise "
         "solver.max_events, or check the scene for contacts that chatter; contact 0 chatters, "

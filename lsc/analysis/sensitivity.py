@@ -275,12 +275,29 @@ def _check_floor(prm, metric, d4, d2, h, noise) -> None:
         "value, or drop that metric")
 
 
+def _integrator(sc, opts: dict) -> str:
+    """The SciPy integrator of a solve of ``sc`` with ``opts``: the one given, or the one a solve
+    naming none picks for it (:func:`lsc.solvers.stiffness.integrator_for`), which a member of a
+    stencil might not pick (Radau at its centre, DOP853 a step away)."""
+    import inspect
+
+    from ..api import model_of
+    from ..solvers import scipy_ode, stiffness
+
+    if opts.get("integrator"):
+        return opts["integrator"]
+    rtol = opts.get("rtol", inspect.signature(scipy_ode.solve).parameters["rtol"].default)
+    return stiffness.integrator_for(model_of(sc), rtol, opts.get("atol"))
+
+
 def _by_fd(sc, prms, needed, *, backend, step, rtol, reference, v_scale):
     from ..api import resolve, solve
     base_backend, _ = resolve(sc, backend, {})
     opts = {}
     if rtol is not None and base_backend in ("scipy", "diffrax"):
         opts["rtol"] = rtol
+    if base_backend == "scipy":   # one integrator for every solve of the stencils: the base's
+        opts["integrator"] = _integrator(sc, resolve(sc, backend, opts)[1])
     resolution = opts.get("rtol", _EXACT_RESOLUTION)
     steps = _fd_steps(prms, reference, step, resolution, v_scale)
 

@@ -41,7 +41,7 @@ from .. import locking
 from ..locking import locking_model
 from ..metrics import RESTART_SHIFT
 from ..model import MAX_ANGLE  # noqa: F401  (the longest step, in radians; see _max_step)
-from . import step_roots
+from . import step_roots, stiffness
 from .base import Backend
 from ..effects import integrable_features
 from .integrable import BUILTIN
@@ -335,14 +335,18 @@ BACKEND = Backend(
     options=("rtol", "atol", "integrator", "t_end", "max_events", "n_samples", "first_step",
              "max_steps"),
     vehicles=(2, None), solves=FEATURES,
-    summary="event-driven SciPy solve_ivp (DOP853 by default)")
+    summary="event-driven SciPy solve_ivp (DOP853 by default; Radau for a stiff damping law)")
 
 
-def solve(model, *, integrator: str = "DOP853", rtol: float = 1e-10, atol=None, t_end=None,
+def solve(model, *, integrator: str | None = None, rtol: float = 1e-10, atol=None, t_end=None,
           max_events: int = 10_000, n_samples: int = 1000, first_step=None,
           max_steps: int = 20_000):
     """Solve ``model`` with a SciPy integrator (``integrator``: RK45, DOP853, LSODA, Radau, BDF,
-    RK23); ``max_steps``: most steps in one segment (then a SimulationError)."""
+    RK23; ``None``: DOP853, or Radau where a damping law's rebound is too stiff for it at this
+    ``rtol``, :func:`.stiffness.integrator_for`); ``max_steps``: most steps in one segment (then
+    a SimulationError)."""
+    if integrator is None:
+        integrator = stiffness.integrator_for(model, rtol, atol)
     if integrator not in INTEGRATORS:
         from ..errors import SceneError
         raise SceneError("solver.integrator", f"unknown SciPy integrator {integrator!r}; "
