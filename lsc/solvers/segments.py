@@ -143,7 +143,11 @@ def _chatter(model, events) -> str:
     if isinstance(laws[k], SpringDashpotLaw) and set(kinds) <= {"max_deformation",
                                                                 "recompression"}:
         text += (" (its damping law's restoring factor is stiffer at this restitution than an "
-                 "explicit integrator steps: solve with integrator='Radau' or method='diffrax')")
+                 "explicit integrator steps: " + (
+                     "solve with integrator='Radau' or method='diffrax')" if model.N == 2 else
+                     "in a chain no integrator of lsc is known to follow it: Radau and BDF finish "
+                     "but may miss a touching pair's closing after rounding parts it, a car's "
+                     "delta_v then 0; a larger restitution is followed)"))
     return text
 
 
