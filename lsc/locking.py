@@ -64,7 +64,7 @@ import numpy as np
 from .laws import BIG, MODE_LOADING, MODE_OPEN, MODE_UNLOADING, HysteresisLaw
 from .laws.hysteresis import _lazy
 from .lock_law import (PRESS_TOL, cluster_forces, clusters, force_rounding, if_,
-                       locked_forces, none, not_, pick)
+                       locked_forces, none, not_, pick, project)
 from .model import HybridModel
 
 __all__ = ["LockPart", "LockingModel", "CHATTER_CLOSINGS", "WATCH_RESTITUTION",
@@ -253,6 +253,10 @@ class LockingModel(HybridModel):
         if none(mask):
             return F
         return xp.asarray(locked_forces(F, p["m"], mask, self.K, xp)[0])
+
+    def project(self, y, disc, p, xp=np):
+        """The state (n,) a segment in ``disc`` starts from: :func:`~lsc.lock_law.project`."""
+        return project(y, self.N, p["m"], self._mask(disc), xp)
 
     def _law_forces(self, y, disc, p, xp=np):
         """The contact laws' forces (K, ...) [force] (0 for a locked contact)."""

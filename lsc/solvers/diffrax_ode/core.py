@@ -220,10 +220,13 @@ class SegmentLoop(EventSearch, PeakSearch):
             c.update({"y_post": y0, "separated": False,
                       "separation_time": jnp.full(K, jnp.nan), "failure_time": fail_t})
 
+        project = getattr(m, "project", None)   # (lsc.locking: a cluster at one velocity)
+
         def body(c):
             t, disc = c["t"], c["disc"]
-            frame = m.frame(t, c["y"], p, jnp)   # the segment's frame
-            y, pf = frame.to_frame(t, c["y"], jnp), frame.params(p)
+            ys = c["y"] if project is None else project(c["y"], disc, p, jnp)
+            frame = m.frame(t, ys, p, jnp)   # the segment's frame
+            y, pf = frame.to_frame(t, ys, jnp), frame.params(p)
             # (then free flight to t_end, events disarmed)
             over = m.is_over(y, disc, t, over_by, pf, jnp, v_scale)
             g0 = m.event_values(t, y, disc, pf, jnp) / sc
@@ -282,7 +285,7 @@ class SegmentLoop(EventSearch, PeakSearch):
                                         axis=1)
                 saved = saved.at[last].set(jnp.where(nacc > 0, jnp.concatenate([tn[None], yn]),
                                                      saved[last]))
-                block = jnp.concatenate([jnp.concatenate([t[None], c["y"]])[None], saved])
+                block = jnp.concatenate([jnp.concatenate([t[None], ys])[None], saved])
                 row = jnp.concatenate([tn[None], i.astype(jnp.float64)[None], yn, flat(new)])
                 out.update({
                     "status": jnp.where((status == 0) & (n0 + 1 + nacc > C), RECORD_FULL, status),
