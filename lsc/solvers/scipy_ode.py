@@ -349,8 +349,7 @@ def solve(model, *, integrator: str | None = None, rtol: float = 1e-10, atol=Non
           max_steps: int = 20_000):
     """Solve ``model`` with a SciPy integrator (``integrator``: RK45, DOP853, LSODA, Radau, BDF,
     RK23; ``None``: DOP853, or Radau where a damping law's rebound is too stiff for it at this
-    ``rtol``, :func:`.stiffness.integrator_for`); ``max_steps``: most steps in one segment (then
-    a SimulationError)."""
+    ``rtol``, :func:`.stiffness.integrator_for`); ``max_steps``: most steps in a segment."""
     if integrator is None:
         integrator = stiffness.integrator_for(model, rtol, atol)
     if integrator not in INTEGRATORS:
