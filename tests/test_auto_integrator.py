@@ -125,9 +125,9 @@ def test_a_finite_difference_stencil_is_solved_by_one_integrator(monkeypatch):
 def test_a_chain_at_its_event_limit_names_no_integrator_that_misreads_it():
     """A Hunt–Crossley chain at e = 1e-12, its pairs touching at rest, stays on DOP853 (two
     vehicles only take Radau) and chatters to its event limit. The message named Radau, which
-    finishes it with the front car's ΔV 0 where it leaves at 1.35 m/s (rounding parts the
-    touching pair for 1e-12 s; the closing after it is missed, the pair struck 9.8 µs later at
-    2 m/s): it now says so instead."""
+    finishes it with the front car's ΔV 0 where it leaves at 1.35 m/s (rounding parts and
+    touches the pair at rest at one instant again and again in its first 2e-11 s; the first of
+    those episodes, with nothing exchanged, is taken for its first impact): it now says so."""
     chain = {"vehicles": [{"mass": 1000, "speed": 5}, {"mass": 1500, "speed": 0},
                           {"mass": 1200, "speed": 0}],
              "contacts": [_scene(1e-12)["contacts"][0]] * 2}
@@ -136,7 +136,7 @@ def test_a_chain_at_its_event_limit_names_no_integrator_that_misreads_it():
     assert str(err.value).endswith(
         "(its damping law's restoring factor is stiffer at this restitution than an explicit "
         "integrator steps: in a chain no integrator of lsc is known to follow it: Radau and BDF "
-        "finish but may miss a touching pair's closing after rounding parts it, a car's delta_v "
-        "then 0; a larger restitution is followed)")
+        "finish but rounding may part a pair touching at rest and its first impact is then "
+        "misread, a car's delta_v 0; a larger restitution is followed)")
     radau = lsc.solve(chain, method="scipy", integrator="Radau")
     assert radau.delta_v[2] == 0.0 and radau.v_final[2] == pytest.approx(5000 / 3700)

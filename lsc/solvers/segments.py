@@ -146,8 +146,8 @@ def _chatter(model, events) -> str:
                  "explicit integrator steps: " + (
                      "solve with integrator='Radau' or method='diffrax')" if model.N == 2 else
                      "in a chain no integrator of lsc is known to follow it: Radau and BDF finish "
-                     "but may miss a touching pair's closing after rounding parts it, a car's "
-                     "delta_v then 0; a larger restitution is followed)"))
+                     "but rounding may part a pair touching at rest and its first impact is then "
+                     "misread, a car's delta_v 0; a larger restitution is followed)"))
     return text
 
 
