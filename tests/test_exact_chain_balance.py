@@ -70,9 +70,10 @@ def test_the_unturned_chain_is_solved():
     """Right after the four events at t* (two separations, two locks released), contact 1 sits
     at the top of its 1e15 lbf/ft line, exactly (its force 74.69 lbf pushes vehicle 2 back):
     contact 0's closing rate (zero) rises at once, so it closes at t* and turns (its max
-    deformation, locked) before it opens. Balance to rounding, momentum to 1e-14. (SciPy is
-    no reference here: its positions put contact 1 2.3e-13 ft below that top, a pull of 158
-    lbf, and its ΔV of vehicle 3 is 1.0e-6 ft/s off.)"""
+    deformation, locked) before it opens. Balance to rounding, momentum to 1e-14. (SciPy's
+    locked pair drifted 2.3e-13 ft below that top, a pull of 158 lbf at the release, its ΔV of
+    vehicle 3 1.0e-6 ft/s off; since its locks start at one velocity it agrees to 3e-12 of the
+    closing speed: tests/test_locked_release.py.)"""
     r = lsc.solve(UNTURNED, method="exact-chain")
     assert _balance(r) < 1e-12
     s = r.scene
