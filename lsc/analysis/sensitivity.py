@@ -279,15 +279,13 @@ def _integrator(sc, opts: dict) -> str:
     """The SciPy integrator of a solve of ``sc`` with ``opts``: the one given, or the one a solve
     naming none picks for it (:func:`lsc.solvers.stiffness.integrator_for`), which a member of a
     stencil might not pick (Radau at its centre, DOP853 a step away)."""
-    import inspect
-
     from ..api import model_of
     from ..solvers import scipy_ode, stiffness
 
     if opts.get("integrator"):
         return opts["integrator"]
-    rtol = opts.get("rtol", inspect.signature(scipy_ode.solve).parameters["rtol"].default)
-    return stiffness.integrator_for(model_of(sc), rtol, opts.get("atol"))
+    return stiffness.integrator_for(model_of(sc), opts.get("rtol", scipy_ode.RTOL),
+                                    opts.get("atol"))
 
 
 def _by_fd(sc, prms, needed, *, backend, step, rtol, reference, v_scale):

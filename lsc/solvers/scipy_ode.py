@@ -47,10 +47,11 @@ from ..effects import integrable_features
 from .integrable import BUILTIN
 from .segments import Step, build_result, run_segments
 
-__all__ = ["BACKEND", "FEATURES", "solve", "INTEGRATORS"]
+__all__ = ["BACKEND", "FEATURES", "solve", "INTEGRATORS", "RTOL"]
 
 INTEGRATORS = ("RK45", "DOP853", "LSODA", "Radau", "BDF", "RK23")
-
+#: The relative tolerance of a solve that names none.
+RTOL = 1e-10
 
 
 def _max_step(model, disc) -> float:
@@ -59,8 +60,7 @@ def _max_step(model, disc) -> float:
 
 
 def _absolute(frame, sol):
-    """A segment's dense output ``sol`` (in its ``frame``) as absolute states: ``(n,)`` at a
-    time, ``(n, k)`` at ``k`` times."""
+    """A segment's dense output ``sol`` (in its ``frame``) as absolute states (n,) or (n, k)."""
     return lambda tt: frame.to_abs(tt, sol(tt))
 
 
@@ -344,7 +344,7 @@ BACKEND = Backend(
     summary="event-driven SciPy solve_ivp (DOP853 by default; Radau for a stiff damping law)")
 
 
-def solve(model, *, integrator: str | None = None, rtol: float = 1e-10, atol=None, t_end=None,
+def solve(model, *, integrator: str | None = None, rtol: float = RTOL, atol=None, t_end=None,
           max_events: int = 10_000, n_samples: int = 1000, first_step=None,
           max_steps: int = 20_000):
     """Solve ``model`` with a SciPy integrator (``integrator``: RK45, DOP853, LSODA, Radau, BDF,

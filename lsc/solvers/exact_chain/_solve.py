@@ -258,9 +258,9 @@ class _Chain:
         ``tol_d``: :meth:`_tol_d` at the start)."""
         # (a rate's rounding includes the deformation's, tol_d, through the stiffest mode
         # that an inexact force drives (._lines.rate_omega); a narrow line's own rate: all)
-        fastest = max(motion.modes.fastest(), 1.0 / self.t_scale)
-        stiff = self._tol_v(v0) + fastest * tol_d
-        tol_w = self._tol_v(v0) + _lines.rate_omega(
+        fastest, tol_v = max(motion.modes.fastest(), 1.0 / self.t_scale), self._tol_v(v0)
+        stiff = tol_v + fastest * tol_d
+        tol_w = tol_v + _lines.rate_omega(
             self.m, slopes, disc[: self.K], D0, tol_d, fastest, 1.0 / self.t_scale) * tol_d
         out, leaves = [], {}   # (leaves: each narrow line's way out, judged once)
         for i in self.parts.active_events(disc):
